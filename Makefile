@@ -1,0 +1,39 @@
+# EigenMPM for YADE. `make demo` and `make test` install what is missing (Debian packages),
+# build, then run. Other targets: build, bench, clean.
+SHELL := /bin/bash
+PYTHON := /usr/bin/python3.11
+BUILD := build
+JOBS ?= $(shell nproc)
+YADE_PY := /usr/lib/x86_64-linux-gnu/yade-double/py
+DEBS := yade cmake make g++ libeigen3-dev libboost-python1.74-dev libboost-numpy1.74-dev \
+        python3-dev python3.11-dev libgtest-dev python3-pytest python3-numpy python3-matplotlib \
+        python3-vtk9
+SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
+export PYTHONPATH := $(CURDIR)/$(BUILD)/python$(if $(PYTHONPATH),:$(PYTHONPATH))
+
+.PHONY: deps build demo test bench clean
+
+deps:
+	@missing=$$(for p in $(DEBS); do dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "ok installed" || echo $$p; done); \
+	if [ -n "$$missing" ]; then \
+	  echo "Installing Debian packages:" $$missing; \
+	  $(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq $$missing; \
+	fi
+
+build: deps
+	cmake -S . -B $(BUILD) -DCMAKE_BUILD_TYPE=Release -DPython3_EXECUTABLE=$(PYTHON) > /dev/null
+	cmake --build $(BUILD) -j $(JOBS)
+
+demo: build
+	yade -n -x examples/verification/vibrating_bar.py --out out/demo
+	@echo "Demo done: summary in out/demo/summary.json, plot in out/demo/tip_displacement.png"
+
+test: build
+	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
+	$(PYTHON) -m pytest tests/python -q
+
+bench: build
+	bash bench/run.sh
+
+clean:
+	rm -rf $(BUILD) out

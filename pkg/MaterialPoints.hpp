@@ -1,0 +1,41 @@
+// Material points as a struct of arrays: one contiguous array per quantity, indexed by point id.
+#pragma once
+#include <cstdint>
+#include <vector>
+
+#include "ElasticMaterial.hpp"
+
+namespace emp {
+
+template <int D> struct MaterialPoints {
+    std::vector<Vec<D>> x;        ///< position
+    std::vector<Vec<D>> v;        ///< velocity v^{n-1/2}
+    std::vector<double> mass;     ///< m_p
+    std::vector<double> volume;   ///< V_p (reference volume; small-strain theory)
+    std::vector<Mat<D>> strain;   ///< total small strain eps
+    std::vector<Mat<D>> stress;   ///< Cauchy stress sigma = g(c) sigma+ + sigma- (Eq 7)
+    std::vector<double> psiPlus;  ///< psi_e^+ (Eq 3)
+    std::vector<double> psiMinus; ///< psi_e^- (Eq 4)
+    std::vector<double> history;  ///< H = max psi+ over time (Eq 22)
+    std::vector<double> damage;   ///< c: 1 intact, 0 eroded (g(c) = c)
+    std::vector<std::int32_t> material;
+
+    std::size_t size() const { return x.size(); }
+
+    void add(const Vec<D>& pos, const Vec<D>& vel, double m, double vol, int mat)
+    {
+        x.push_back(pos);
+        v.push_back(vel);
+        mass.push_back(m);
+        volume.push_back(vol);
+        strain.push_back(Mat<D>::Zero());
+        stress.push_back(Mat<D>::Zero());
+        psiPlus.push_back(0.0);
+        psiMinus.push_back(0.0);
+        history.push_back(0.0);
+        damage.push_back(1.0);
+        material.push_back(mat);
+    }
+};
+
+}  // namespace emp

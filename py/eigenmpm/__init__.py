@@ -1,0 +1,17 @@
+"""EigenMPM: dynamic brittle fracture in continua for YADE (material point method on a GIMP
+grid; phantom nodes and eigenerosion come with later versions).
+
+Put the engines in ``O.engines`` beside YADE's own::
+
+    import eigenmpm as em
+    mpm = em.MpmEngine(dim=2, h=0.01)
+    ...
+    O.engines = [mpm, em.VTKRecorder(fileName='out/bar-', iterPeriod=100),
+                 em.PlotRecorder(iterPeriod=10), em.Progress(endIter=10000)]
+"""
+from .engines import MpmEngine, VelocityBC, callEvery, criticalTimeStep, findEngine, mpmEngines
+from .materials import ElasticMaterial
+from .recorders import PlotRecorder, Progress, VTKRecorder
+
+__all__ = ["MpmEngine", "VelocityBC", "ElasticMaterial", "VTKRecorder", "PlotRecorder", "Progress",
+           "callEvery", "criticalTimeStep", "findEngine", "mpmEngines"]

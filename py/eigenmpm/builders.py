@@ -1,0 +1,53 @@
+"""Specimens from ``yade.pack`` predicates: lattice filling and selections."""
+import math
+
+import numpy as np
+
+
+def _aabb(predicate):
+    lo, hi = predicate.aabb()
+    return np.array([lo[0], lo[1], lo[2]], float), np.array([hi[0], hi[1], hi[2]], float)
+
+
+def latticePoints(predicate, h, ppc, dim):
+    """Points of the lattice x = (i + 1/2) h/ppc (aligned with the grid nodes at multiples of h)
+    inside the predicate's bounding box for which ``predicate(x, 0)`` holds, x fastest."""
+    if not hasattr(predicate, "aabb"):
+        raise TypeError(f"EigenMPM: {predicate!r} is not a yade.pack predicate (it has no aabb())")
+    lo, hi = _aabb(predicate)
+    if not (np.all(np.isfinite(lo[:dim])) and np.all(np.isfinite(hi[:dim]))):
+        raise ValueError(f"EigenMPM: the predicate's bounding box {lo}..{hi} is unbounded; "
+                         "intersect it with a box")
+    dx = h / ppc
+    axes = []
+    for d in range(dim):
+        first = math.ceil(lo[d] / dx - 0.5 - 1e-9)
+        last = math.floor(hi[d] / dx - 0.5 + 1e-9)
+        axes.append((np.arange(first, last + 1) + 0.5) * dx)
+    if dim == 2:
+        z = 0.5 * (lo[2] + hi[2]) if np.isfinite(lo[2]) and np.isfinite(hi[2]) else 0.0
+        axes.append(np.array([z]))
+    grid = np.meshgrid(*axes, indexing="ij")
+    pts = np.stack([g.ravel(order="F") for g in grid], axis=1)
+    keep = np.fromiter((bool(predicate(tuple(p), 0.0)) for p in pts), dtype=bool, count=len(pts))
+    out = pts[keep]
+    if dim == 2:
+        out[:, 2] = 0.0
+    return out
+
+
+def select(positions, predicate, pad, dim):
+    """Indices of the rows of `positions` (n x 3) inside the predicate (yade.pack predicate
+    evaluated as predicate(x, pad), or a callable of the point alone)."""
+    pos = np.asarray(positions)
+    if hasattr(predicate, "aabb"):
+        lo, hi = _aabb(predicate)
+        if dim == 2:
+            z = 0.5 * (lo[2] + hi[2]) if np.isfinite(lo[2]) and np.isfinite(hi[2]) else 0.0
+            pos = pos.copy()
+            pos[:, 2] = z
+        tol = abs(pad) + 1e-12
+        near = np.all((pos[:, :dim] >= lo[:dim] - tol) & (pos[:, :dim] <= hi[:dim] + tol), axis=1)
+        cand = np.nonzero(near)[0]
+        return np.array([i for i in cand if predicate(tuple(pos[i]), pad)], dtype=int)
+    return np.array([i for i in range(len(pos)) if predicate(tuple(pos[i]))], dtype=int)

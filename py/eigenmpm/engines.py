@@ -1,0 +1,297 @@
+"""YADE engines of EigenMPM.
+
+YADE calls the ``action`` of its own C++ engines only; the engine that runs Python inside the
+loop is ``PyRunner``. Our engines are therefore ``PyRunner`` subclasses whose command calls
+back into the engine object (looked up through this module, not through ``__main__``, whose
+namespace differs between ``yade script.py``, ``yade -x`` and plain Python).
+"""
+import itertools
+
+import numpy as np
+from yade import O, PyRunner
+
+from . import _eigenmpm
+from .params import Param, apply, declare, vec3
+
+_registry = {}
+_keys = itertools.count()
+
+
+def _register(engine):
+    key = next(_keys)
+    _registry[key] = engine
+    return f"import eigenmpm.engines as _m; _m._registry[{key}]._action()"
+
+
+def mpmEngines():
+    """The EigenMPM solver engines in ``O.engines``."""
+    return [e for e in O.engines if isinstance(e, MpmEngine)]
+
+
+def findEngine(engine=None):
+    """The solver engine given by object or label, or the only one in ``O.engines``."""
+    if isinstance(engine, MpmEngine):
+        return engine
+    found = mpmEngines()
+    if engine is not None:
+        found = [e for e in found if e.label == engine]
+    if len(found) != 1:
+        raise ValueError(f"EigenMPM: {len(found)} MpmEngine(s) match {engine!r} in O.engines; "
+                         "give the engine or its label")
+    return found[0]
+
+
+def criticalTimeStep(engine=None):
+    """Critical (CFL) time step of one solver engine, or the smallest of all in O.engines, in s."""
+    if engine is not None:
+        return findEngine(engine).criticalTimeStep()
+    steps = [e.criticalTimeStep() for e in mpmEngines()]
+    if not steps:
+        raise ValueError("EigenMPM: no MpmEngine in O.engines")
+    return min(steps)
+
+
+def _mask(components, dim):
+    axes = "xyz"[:dim]
+    if not components or any(c not in axes for c in components):
+        raise ValueError(f"EigenMPM: components = {components!r} is invalid; allowed: a non-empty "
+                         f"string of the letters {axes!r}")
+    return sum(1 << axes.index(c) for c in set(components))
+
+
+class VelocityBC:
+    """A velocity condition on grid nodes, returned by :meth:`MpmEngine.velocityBC`.
+
+    ``reaction`` is the force (N, Vector3) the condition exerted on the body in the last step.
+    """
+
+    def __init__(self, engine, cid, label, velocity, rampTime):
+        self._engine, self.id, self.label = engine, cid, label
+        self.velocity, self.rampTime = velocity, rampTime
+
+    @property
+    def reaction(self):
+        return _vector(self._engine.solver.reaction(self.id))
+
+    def _update(self, t):
+        if callable(self.velocity):
+            self._engine.solver.setConditionVelocity(self.id, vec3(self.velocity(t), "velocity(t)"), 0.0)
+
+
+def _vector(t):
+    try:
+        from yade import Vector3
+        return Vector3(*t)
+    except ImportError:
+        return tuple(t)
+
+
+_SOLVERS = {(2, "linear"): _eigenmpm.Solver2Linear, (2, "ugimp"): _eigenmpm.Solver2GIMP,
+            (3, "linear"): _eigenmpm.Solver3Linear, (3, "ugimp"): _eigenmpm.Solver3GIMP}
+
+
+@declare
+class MpmEngine(PyRunner):
+    """Explicit MPM/GIMP solver for linear elastic continua (paper Sections 3.1-3.2, 4.1) as a
+    YADE engine. It advances by ``O.dt`` each iteration, on ``O.numThreads`` OpenMP threads.
+
+    Example::
+
+        import eigenmpm as em
+        from yade import pack
+        mpm = em.MpmEngine(dim=2, h=0.01, ppc=2, label='mpm')
+        steel = em.ElasticMaterial(E=200e9, nu=0.3, rho=7850)
+        mpm.fill(pack.inAlignedBox((0, 0, 0), (1, 0.1, 0)), steel)
+        mpm.fix(region=pack.inAlignedBox((-1, -1, -1), (0.001, 1, 1)))
+        O.engines = [mpm]
+        O.dt = 0.5 * mpm.criticalTimeStep()
+        O.run(1000, True)
+    """
+
+    params = (
+        Param("dim", 2, "", "spatial dimension, 2 or 3 (2D runs native 2D kernels)"),
+        Param("h", None, "m", "cell size of the background grid; h > 0"),
+        Param("ppc", 2, "", "material points per cell per direction used by fill() and by the "
+                            "uGIMP particle half-width h/(2 ppc); ppc >= 1"),
+        Param("shape", "uGIMP", "", "shape functions: 'uGIMP' (paper Eq 16) or 'linear' (standard MPM)"),
+        Param("thickness", 1.0, "m", "out-of-plane thickness of a 2D model (point volume = area x "
+                                     "thickness; forces and energies are for this thickness)"),
+        Param("gravity", (0.0, 0.0, 0.0), "m/s2", "body force per unit mass"),
+        Param("domain", None, "m", "(lo, hi) corners of the grid; default: bounding box of the points "
+                                   "plus `padding` cells, fixed at the first step"),
+        Param("padding", 3, "cells", "cells added around the points when the grid is sized automatically"),
+        Param("massCutoff", 1e-6, "", "nodes lighter than this fraction of the mean point mass carry "
+                                      "no velocity (small-mass cut-off)"),
+        Param("threads", None, "", "OpenMP threads; default O.numThreads (yade -j N)"),
+    )
+
+    def __init__(self, label="mpm", **kw):
+        PyRunner.__init__(self)
+        apply(self, self.params, kw, "MpmEngine")
+        if self.dim not in (2, 3):
+            raise ValueError(f"EigenMPM: dim = {self.dim!r} is invalid; allowed: 2 or 3")
+        shape = str(self.shape).lower()
+        if shape not in ("linear", "ugimp"):
+            raise ValueError(f"EigenMPM: shape = {self.shape!r} is invalid; allowed: 'uGIMP' or 'linear'")
+        if self.h is None:
+            raise TypeError("MpmEngine: parameter h (cell size, m) is required")
+        if not self.thickness > 0:
+            raise ValueError(f"EigenMPM: thickness = {self.thickness!r} is invalid; allowed: thickness > 0")
+        self.solver = _SOLVERS[(self.dim, shape)](h=float(self.h), ppc=int(self.ppc),
+                                                  massCutoff=float(self.massCutoff),
+                                                  padding=int(self.padding))
+        self.solver.gravity = vec3(self.gravity, "gravity")
+        if self.domain is not None:
+            lo, hi = self.domain
+            self.solver.setDomain(vec3(lo, "domain lo"), vec3(hi, "domain hi"))
+        self.label = label
+        self.iterPeriod, self.initRun = 1, True
+        self.command = _register(self)
+        self.bcs = {}
+        self.recorders = []
+        self._materials = {}
+
+    # --- specimen -------------------------------------------------------------------------
+    def material(self, mat):
+        """Solver id of an ElasticMaterial, registering it on first use."""
+        key = id(mat)
+        if key not in self._materials:
+            self._materials[key] = (mat, self.solver.addMaterial(float(mat.E), float(mat.nu),
+                                                                 float(mat.rho), bool(mat.planeStress)))
+        return self._materials[key][1]
+
+    def addPoints(self, positions, material, volumes, velocities=None):
+        """Adds points at `positions` (n x 3, m) with `volumes` (m^3; in 2D area x thickness).
+        Returns the ids of the new points."""
+        pos = np.ascontiguousarray(np.asarray(positions, dtype=float).reshape(-1, 3))
+        n = len(pos)
+        vol = np.ascontiguousarray(np.broadcast_to(np.asarray(volumes, dtype=float), (n,)))
+        vel = np.zeros((n, 3)) if velocities is None else np.asarray(velocities, dtype=float)
+        vel = np.ascontiguousarray(np.broadcast_to(vel, (n, 3)))
+        first = self.solver.addPoints(pos, vel, vol, self.material(material))
+        return np.arange(first, first + n)
+
+    def fill(self, predicate, material, velocity=(0, 0, 0)):
+        """Fills a ``yade.pack`` predicate (or any callable ``pred(point, pad)``) with points on
+        the regular lattice of ppc points per cell per direction, aligned with the grid (points at
+        cell fractions (i + 1/2)/ppc). In 2D the predicate is evaluated in the plane z = middle of
+        its bounding box (z = 0 if unbounded). Returns the ids of the new points."""
+        from .builders import latticePoints
+        pos = latticePoints(predicate, self.h, self.ppc, self.dim)
+        if len(pos) == 0:
+            raise ValueError(f"EigenMPM: the predicate {predicate!r} holds no lattice point at h = "
+                             f"{self.h}, ppc = {self.ppc}; check its extent")
+        vol = (self.h / self.ppc) ** self.dim * (self.thickness if self.dim == 2 else 1.0)
+        return self.addPoints(pos, material, vol, vec3(velocity, "velocity"))
+
+    def pointsIn(self, predicate, pad=0.0):
+        """Ids of the points whose current position satisfies ``predicate(x, pad)``."""
+        from .builders import select
+        return select(self.solver.positions(), predicate, pad, self.dim)
+
+    def nodesIn(self, predicate, pad=None):
+        """Indices of the grid nodes inside ``predicate``; pad defaults to -1e-6 h, so nodes on the
+        region's faces count as inside."""
+        from .builders import select
+        pad = -1e-6 * self.h if pad is None else pad
+        return select(self.solver.nodePositions(), predicate, pad, self.dim)
+
+    # --- boundary conditions --------------------------------------------------------------
+    def velocityBC(self, region=None, points=None, components=None, velocity=(0, 0, 0),
+                   rampTime=0.0, label=None):
+        """Prescribes the velocity (m/s) of grid nodes on the given components ('x', 'xy', ...;
+        default all). Nodes are chosen by `region` (a predicate on node positions, or node
+        indices) once, or by `points` (a predicate on the points' initial positions, or point
+        ids): then each step the node nearest to each of these points. `velocity` is a vector or a
+        function of time returning one; with rampTime t0 > 0 it rises linearly from 0 to its value
+        over t0 (paper Eq 34). Returns a VelocityBC whose ``reaction`` is the force it exerts."""
+        if (region is None) == (points is None):
+            raise ValueError("EigenMPM: velocityBC needs exactly one of region= or points=")
+        nodes = [] if region is None else self._indices(region, self.nodesIn)
+        pts = [] if points is None else self._indices(points, self.pointsIn)
+        if len(nodes) == 0 and len(pts) == 0:
+            raise ValueError(f"EigenMPM: velocityBC {label!r} selects no node and no point; check the region")
+        mask = _mask(components or "xyz"[:self.dim], self.dim)
+        v0 = (0.0, 0.0, 0.0) if callable(velocity) else vec3(velocity, "velocity")
+        if not rampTime >= 0:
+            raise ValueError(f"EigenMPM: rampTime = {rampTime!r} is invalid; allowed: rampTime >= 0")
+        cid = self.solver.addVelocityCondition([int(i) for i in nodes], [int(i) for i in pts],
+                                               mask, v0, float(rampTime))
+        label = label or f"bc{cid}"
+        bc = VelocityBC(self, cid, label, velocity, rampTime)
+        self.bcs[label] = bc
+        return bc
+
+    def fix(self, region=None, points=None, components=None, label=None):
+        """Zero velocity on the given components: a fixed support (all components) or a
+        symmetry/roller plane (the normal component only)."""
+        return self.velocityBC(region=region, points=points, components=components, label=label)
+
+    def traction(self, points, traction, rampTime=0.0, layer=None):
+        """Applies a traction (Pa, vector) on boundary points (predicate or ids) as the nodal force
+        N t V_p / layer of paper Eq 28; `layer` (default h) is the thickness of the band of points
+        selected at the surface."""
+        pts = self._indices(points, self.pointsIn)
+        if len(pts) == 0:
+            raise ValueError("EigenMPM: traction selects no point; check the predicate")
+        return self.solver.addTraction([int(i) for i in pts], vec3(traction, "traction"),
+                                       float(rampTime), float(self.h if layer is None else layer))
+
+    @staticmethod
+    def _indices(sel, finder):
+        if callable(sel) or hasattr(sel, "aabb"):
+            return finder(sel)
+        return np.asarray(sel, dtype=int).ravel()
+
+    # --- stepping -------------------------------------------------------------------------
+    def criticalTimeStep(self):
+        """h / (wave speed + max point speed): the largest O.dt this engine accepts, in s."""
+        return self.solver.criticalTimeStep()
+
+    def _action(self):
+        t = O.time
+        self.solver.time = t
+        for bc in self.bcs.values():
+            bc._update(t)
+        threads = self.threads if self.threads else O.numThreads
+        try:
+            self.solver.step(O.dt, int(threads))
+        except Exception as err:
+            for rec in self.recorders:
+                rec.onFailure(self, err)
+            raise
+
+    # --- diagnostics ----------------------------------------------------------------------
+    def kineticEnergy(self):
+        """Sum of m v^2 / 2 over the points, J."""
+        return self.solver.kineticEnergy()
+
+    def elasticEnergy(self):
+        """Sum of V (c psi+ + psi-) over the points (paper Eq 32), J."""
+        return self.solver.elasticEnergy()
+
+    def plotData(self):
+        """Scalars for ``yade.plot.addData``: kinetic and elastic energy (J) and the reaction force
+        components (N) of every velocity condition, keys prefixed with the engine's label."""
+        d = {f"{self.label}_Ek": self.kineticEnergy(), f"{self.label}_Ee": self.elasticEnergy()}
+        for name, bc in self.bcs.items():
+            r = self.solver.reaction(bc.id)
+            for k in range(self.dim):
+                d[f"{self.label}_{name}_R{'xyz'[k]}"] = r[k]
+        return d
+
+
+class _Call:
+    def __init__(self, function):
+        self._function = function
+
+    def _action(self):
+        self._function()
+
+
+def callEvery(function, iterPeriod=1, virtPeriod=0.0, label=""):
+    """A PyRunner that calls ``function()`` every iterPeriod iterations (or virtPeriod seconds),
+    starting at the first iteration. Unlike a command string it needs no name in ``__main__``."""
+    r = PyRunner(command=_register(_Call(function)), initRun=True, label=label)
+    r.iterPeriod, r.virtPeriod = int(iterPeriod), float(virtPeriod)
+    return r

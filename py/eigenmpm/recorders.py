@@ -1,0 +1,178 @@
+"""Periodic output engines: VTK files for ParaView, yade.plot data, progress with ETA."""
+import os
+import sys
+import time
+
+import numpy as np
+from yade import O, PyRunner
+
+from .engines import _register, findEngine
+from .params import Param, apply, declare
+
+
+def _periodic(engine, iterPeriod, virtPeriod, realPeriod=0):
+    if not (iterPeriod or virtPeriod or realPeriod):
+        raise ValueError("EigenMPM: give iterPeriod, virtPeriod or realPeriod (> 0)")
+    engine.iterPeriod = int(iterPeriod or 0)
+    engine.virtPeriod = float(virtPeriod or 0)
+    engine.realPeriod = float(realPeriod or 0)
+
+
+@declare
+class VTKRecorder(PyRunner):
+    """Writes the material points of an MpmEngine as VTK XML poly data (``.vtp``, one file per
+    record) plus a ParaView collection ``<fileName>.pvd`` with the time of each file. Point data:
+    velocity, displacement, stress and strain (3x3), psiPlus, H (history), damage, material.
+    Periodic like YADE's VTKRecorder (iterPeriod or virtPeriod). When the solver stops on an
+    error, the state at that moment is written as ``<fileName>failure.vtp``.
+    """
+
+    params = (
+        Param("engine", None, "", "the MpmEngine or its label (default: the only one)"),
+        Param("fileName", "mpm-", "", "path prefix of the files; directories are created"),
+        Param("iterPeriod", 0, "iterations", "record every iterPeriod iterations"),
+        Param("virtPeriod", 0.0, "s", "record every virtPeriod of simulated time"),
+    )
+
+    def __init__(self, label="mpmVtk", **kw):
+        PyRunner.__init__(self)
+        apply(self, self.params[:2], {k: v for k, v in kw.items() if k in ("engine", "fileName")}, "VTKRecorder")
+        rest = {k: v for k, v in kw.items() if k not in ("engine", "fileName")}
+        unknown = set(rest) - {"iterPeriod", "virtPeriod"}
+        if unknown:
+            raise TypeError(f"VTKRecorder: unknown parameter(s) {', '.join(sorted(unknown))}")
+        _periodic(self, rest.get("iterPeriod"), rest.get("virtPeriod"))
+        self.label, self.initRun = label, True
+        self.command = _register(self)
+        self.files = []
+        self._attached = None
+        self._x0 = None
+
+    def _mpm(self):
+        mpm = findEngine(self.engine)
+        if self._attached is not mpm:
+            mpm.recorders.append(self)
+            self._attached = mpm
+        return mpm
+
+    def _action(self):
+        self.write(self._mpm())
+
+    def onFailure(self, mpm, err):
+        self.write(mpm, suffix="failure", index=False)
+
+    def write(self, mpm, suffix=None, index=True):
+        from vtkmodules.util.numpy_support import numpy_to_vtk
+        from vtkmodules.vtkCommonCore import vtkPoints
+        from vtkmodules.vtkCommonDataModel import vtkCellArray, vtkPolyData
+        from vtkmodules.vtkIOXML import vtkXMLPolyDataWriter
+
+        s = mpm.solver
+        x = s.positions()
+        if self._x0 is None or len(self._x0) != len(x):
+            self._x0 = x.copy()
+        n = len(x)
+        poly = vtkPolyData()
+        pts = vtkPoints()
+        pts.SetData(numpy_to_vtk(x, deep=True))
+        poly.SetPoints(pts)
+        verts = vtkCellArray()
+        conn = np.arange(n, dtype=np.int64)
+        offsets = np.arange(n + 1, dtype=np.int64)
+        verts.SetData(numpy_to_vtk(offsets, deep=True), numpy_to_vtk(conn, deep=True))
+        poly.SetVerts(verts)
+        fields = {"velocity": s.velocities(), "displacement": x - self._x0,
+                  "stress": s.stress().reshape(n, 9), "strain": s.strain().reshape(n, 9),
+                  "psiPlus": s.psiPlus(), "H": s.history(), "damage": s.damage(),
+                  "material": s.material()}
+        for name, arr in fields.items():
+            a = numpy_to_vtk(np.ascontiguousarray(arr), deep=True)
+            a.SetName(name)
+            poly.GetPointData().AddArray(a)
+        tag = suffix if suffix else f"{O.iter:08d}"
+        path = f"{self.fileName}{tag}.vtp"
+        os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+        w = vtkXMLPolyDataWriter()
+        w.SetFileName(path)
+        w.SetInputData(poly)
+        w.SetDataModeToAppended()
+        w.SetCompressorTypeToZLib()
+        if not w.Write():
+            raise RuntimeError(f"EigenMPM: could not write {path}")
+        if index:
+            self.files.append((s.time, path))
+            self._writeCollection()
+        return path
+
+    def _writeCollection(self):
+        pvd = f"{self.fileName}.pvd" if not self.fileName.endswith(("/", "-", "_")) else f"{self.fileName}series.pvd"
+        base = os.path.dirname(os.path.abspath(pvd))
+        rows = "\n".join(f'    <DataSet timestep="{t:.12g}" file="{os.path.relpath(os.path.abspath(p), base)}"/>'
+                         for t, p in self.files)
+        with open(pvd, "w") as f:
+            f.write('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n  <Collection>\n'
+                    f"{rows}\n  </Collection>\n</VTKFile>\n")
+        self.collection = pvd
+
+
+@declare
+class PlotRecorder(PyRunner):
+    """Adds the MpmEngine's diagnostics to ``yade.plot`` every period: ``t`` (s), ``iter``, and
+    ``<label>_Ek``, ``<label>_Ee`` (J) and ``<label>_<bc>_Rx`` ... (N) from MpmEngine.plotData."""
+
+    params = (
+        Param("engine", None, "", "the MpmEngine or its label (default: the only one)"),
+    )
+
+    def __init__(self, label="mpmPlot", engine=None, iterPeriod=0, virtPeriod=0.0):
+        PyRunner.__init__(self)
+        self.engine = engine
+        _periodic(self, iterPeriod, virtPeriod)
+        self.label, self.initRun = label, True
+        self.command = _register(self)
+
+    def _action(self):
+        from yade import plot
+        mpm = findEngine(self.engine)
+        # After the solver in O.engines the state is at solver.time (O.time advances later).
+        plot.addData(t=mpm.solver.time, iter=O.iter, **mpm.plotData())
+
+
+@declare
+class Progress(PyRunner):
+    """Prints progress of a long run: iteration, simulated time, percentage, elapsed wall time and
+    ETA, every realPeriod seconds of wall time. Give the end as endIter or endTime."""
+
+    params = (
+        Param("endIter", None, "", "last iteration of the run"),
+        Param("endTime", None, "s", "simulated time at the end of the run"),
+        Param("realPeriod", 10.0, "s", "wall-clock seconds between reports"),
+    )
+
+    def __init__(self, label="mpmProgress", stream=None, **kw):
+        PyRunner.__init__(self)
+        apply(self, self.params, kw, "Progress")
+        if self.endIter is None and self.endTime is None:
+            raise ValueError("EigenMPM: Progress needs endIter or endTime")
+        _periodic(self, 0, 0, self.realPeriod)
+        self.label, self.initRun = label, True
+        self.command = _register(self)
+        self.stream = stream
+        self._start = None
+
+    def fraction(self):
+        if self.endIter:
+            return min(O.iter / float(self.endIter), 1.0)
+        return min(O.time / float(self.endTime), 1.0)
+
+    def _action(self):
+        now = time.time()
+        if self._start is None:
+            self._start = (now, self.fraction())
+            return
+        f = self.fraction()
+        elapsed = now - self._start[0]
+        done = f - self._start[1]
+        eta = elapsed * (1.0 - f) / done if done > 0 else float("nan")
+        print(f"[EigenMPM] iter {O.iter}, t = {O.time:.6g} s, {100 * f:5.1f} %, "
+              f"elapsed {elapsed:.0f} s, ETA {eta:.0f} s", file=self.stream or sys.stdout, flush=True)

@@ -1,0 +1,277 @@
+// Boost.Python bindings of the core: one Python class per (dimension, shape function) pair.
+// Vectors are taken as any 2- or 3-sequence (YADE's Vector3, tuples, lists, numpy arrays);
+// bulk per-point data travels as numpy arrays. The Python package eigenmpm wraps these classes
+// in YADE engines.
+#include <boost/python.hpp>
+#include <boost/python/numpy.hpp>
+#include <string>
+#include <vector>
+
+#include "Errors.hpp"
+#include "Solver.hpp"
+
+namespace bp = boost::python;
+namespace np = boost::python::numpy;
+using namespace emp;
+
+namespace {
+
+Eigen::Vector3d toVec3(const bp::object& o, const char* what)
+{
+    const long n = bp::len(o);
+    require(n == 2 || n == 3, std::string(what) + " (vector length)", n, "2 or 3 components");
+    Eigen::Vector3d v = Eigen::Vector3d::Zero();
+    for (long i = 0; i < n; ++i) v[i] = bp::extract<double>(o[i]);
+    return v;
+}
+
+bp::tuple fromVec3(const Eigen::Vector3d& v) { return bp::make_tuple(v[0], v[1], v[2]); }
+
+std::vector<int> toIntList(const bp::object& o)
+{
+    std::vector<int> out;
+    const long n = bp::len(o);
+    out.reserve(n);
+    for (long i = 0; i < n; ++i) out.push_back(bp::extract<int>(o[i]));
+    return out;
+}
+
+/// Reads a float64 numpy array into a flat row-major vector after checking its shape.
+std::vector<double> readArray(const np::ndarray& a, long rows, int cols, const char* what)
+{
+    require(a.get_dtype() == np::dtype::get_builtin<double>(), std::string(what) + " dtype",
+            bp::extract<std::string>(bp::str(a.get_dtype()))(), "float64");
+    const int nd = a.get_nd();
+    const long r = a.shape(0);
+    const long c = nd > 1 ? a.shape(1) : 1;
+    require(r == rows && c == cols, std::string(what) + " shape rows x cols", std::to_string(r) + " x " + std::to_string(c),
+            std::to_string(rows) + " x " + std::to_string(cols));
+    std::vector<double> out(rows * cols);
+    const char* base = a.get_data();
+    const Py_intptr_t* st = a.get_strides();
+    for (long i = 0; i < rows; ++i)
+        for (int j = 0; j < cols; ++j)
+            out[i * cols + j] = *reinterpret_cast<const double*>(base + i * st[0] + (nd > 1 ? j * st[1] : 0));
+    return out;
+}
+
+np::ndarray zeros(long rows, int cols, int cols2 = 0)
+{
+    bp::tuple shape = cols2 ? bp::make_tuple(rows, cols, cols2) : (cols ? bp::make_tuple(rows, cols) : bp::make_tuple(rows));
+    return np::zeros(shape, np::dtype::get_builtin<double>());
+}
+
+/// Releases the GIL while the core computes, so YADE's other threads keep running.
+struct NoGil {
+    PyThreadState* state = PyEval_SaveThread();
+    ~NoGil() { PyEval_RestoreThread(state); }
+};
+
+template <class Sv> struct Bind {
+    static constexpr int D = Sv::dim;
+
+    static std::shared_ptr<Sv> make(double h, int ppc, double massCutoff, int padding)
+    {
+        SolverSettings s;
+        s.h = h;
+        s.ppc = ppc;
+        s.massCutoff = massCutoff;
+        s.padding = padding;
+        return std::make_shared<Sv>(s);
+    }
+    static int addPoints(Sv& s, np::ndarray pos, np::ndarray vel, np::ndarray vol, int material)
+    {
+        const long n = pos.shape(0);
+        const auto x = readArray(pos, n, 3, "positions");
+        const auto v = readArray(vel, n, 3, "velocities");
+        const auto V = readArray(vol, n, 1, "volumes");
+        const int first = static_cast<int>(s.points().size());
+        for (long i = 0; i < n; ++i)
+            s.addPoint(Eigen::Vector3d(x[3 * i], x[3 * i + 1], x[3 * i + 2]),
+                       Eigen::Vector3d(v[3 * i], v[3 * i + 1], v[3 * i + 2]), V[i], material);
+        return first;
+    }
+    static void step(Sv& s, double dt, int nThreads)
+    {
+        NoGil nogil;
+        s.step(dt, nThreads);
+    }
+    static void setDomain(Sv& s, bp::object lo, bp::object hi) { s.setDomain(toVec3(lo, "domain lo"), toVec3(hi, "domain hi")); }
+    static void setGravity(Sv& s, bp::object g) { s.setGravity(toVec3(g, "gravity")); }
+    static int addVelocityCondition(Sv& s, bp::object nodes, bp::object points, unsigned mask, bp::object vel, double ramp)
+    {
+        return s.addVelocityCondition(toIntList(nodes), toIntList(points), mask, toVec3(vel, "velocity"), ramp);
+    }
+    static void setConditionVelocity(Sv& s, int id, bp::object vel, double ramp) { s.setConditionVelocity(id, toVec3(vel, "velocity"), ramp); }
+    static int addTraction(Sv& s, bp::object points, bp::object t, double ramp, double layer)
+    {
+        return s.addTraction(toIntList(points), toVec3(t, "traction"), ramp, layer);
+    }
+    static bp::tuple reaction(const Sv& s, int id) { return fromVec3(s.reaction(id)); }
+    static bp::tuple gravity(const Sv& s) { return fromVec3(s.settings().gravity); }
+
+    template <class Get> static np::ndarray vectors(const Sv& s, Get get)
+    {
+        const long n = s.points().size();
+        np::ndarray a = zeros(n, 3);
+        double* out = reinterpret_cast<double*>(a.get_data());
+        for (long p = 0; p < n; ++p)
+            for (int d = 0; d < D; ++d) out[3 * p + d] = get(p)[d];
+        return a;
+    }
+    static np::ndarray positions(const Sv& s) { return vectors(s, [&](long p) { return s.points().x[p]; }); }
+    static np::ndarray velocities(const Sv& s) { return vectors(s, [&](long p) { return s.points().v[p]; }); }
+
+    /// 3x3 tensors; in 2D the out-of-plane component follows the material's plane condition:
+    /// plane strain has eps_zz = 0 and sigma_zz = c lambda<tr>+ + lambda<tr>-; plane stress has
+    /// sigma_zz = 0 and eps_zz = -nu/(1-nu) (eps_xx + eps_yy).
+    static np::ndarray tensors(const Sv& s, bool stress)
+    {
+        const auto& P = s.points();
+        const long n = P.size();
+        np::ndarray a = zeros(n, 3, 3);
+        double* out = reinterpret_cast<double*>(a.get_data());
+        for (long p = 0; p < n; ++p) {
+            const auto& t = stress ? P.stress[p] : P.strain[p];
+            for (int i = 0; i < D; ++i)
+                for (int j = 0; j < D; ++j) out[9 * p + 3 * i + j] = t(i, j);
+            if constexpr (D == 2) {
+                const ElasticMaterial& m = s.materials()[P.material[p]];
+                const double tr = P.strain[p].trace();
+                double zz = 0;
+                if (stress && !m.planeStress) zz = m.lambda * (P.damage[p] * std::max(tr, 0.0) + std::min(tr, 0.0));
+                if (!stress && m.planeStress) zz = -m.nu / (1.0 - m.nu) * tr;
+                out[9 * p + 8] = zz;
+            }
+        }
+        return a;
+    }
+    static np::ndarray stress(const Sv& s) { return tensors(s, true); }
+    static np::ndarray strain(const Sv& s) { return tensors(s, false); }
+
+    template <class T> static np::ndarray scalars(const std::vector<T>& v)
+    {
+        np::ndarray a = zeros(v.size(), 0);
+        double* out = reinterpret_cast<double*>(a.get_data());
+        for (std::size_t i = 0; i < v.size(); ++i) out[i] = static_cast<double>(v[i]);
+        return a;
+    }
+    static np::ndarray psiPlus(const Sv& s) { return scalars(s.points().psiPlus); }
+    static np::ndarray psiMinus(const Sv& s) { return scalars(s.points().psiMinus); }
+    static np::ndarray history(const Sv& s) { return scalars(s.points().history); }
+    static np::ndarray damage(const Sv& s) { return scalars(s.points().damage); }
+    static np::ndarray volume(const Sv& s) { return scalars(s.points().volume); }
+    static np::ndarray mass(const Sv& s) { return scalars(s.points().mass); }
+    static np::ndarray material(const Sv& s) { return scalars(s.points().material); }
+
+    static void setVelocities(Sv& s, np::ndarray vel)
+    {
+        auto& P = s.points();
+        const auto v = readArray(vel, P.size(), 3, "velocities");
+        for (std::size_t p = 0; p < P.size(); ++p)
+            for (int d = 0; d < D; ++d) {
+                require(std::isfinite(v[3 * p + d]), "velocity of point " + std::to_string(p), v[3 * p + d], "finite");
+                P.v[p][d] = v[3 * p + d];
+            }
+    }
+    static np::ndarray nodePositions(Sv& s)
+    {
+        s.initialize();
+        const auto& g = s.grid();
+        const long n = g.numNodes();
+        np::ndarray a = zeros(n, 3);
+        double* out = reinterpret_cast<double*>(a.get_data());
+        for (long I = 0; I < n; ++I) {
+            const auto x = g.nodePosition(I);
+            for (int d = 0; d < D; ++d) out[3 * I + d] = x[d];
+        }
+        return a;
+    }
+    static bp::tuple gridShape(Sv& s)
+    {
+        s.initialize();
+        bp::list l;
+        for (int d = 0; d < D; ++d) l.append(s.grid().n[d]);
+        return bp::tuple(l);
+    }
+    static bp::tuple gridOrigin(Sv& s)
+    {
+        s.initialize();
+        Eigen::Vector3d o = Eigen::Vector3d::Zero();
+        o.head<D>() = s.grid().origin;
+        return fromVec3(o);
+    }
+    static bp::dict materialInfo(const Sv& s, int id)
+    {
+        require(id >= 0 && id < static_cast<int>(s.materials().size()), "material (id)", id, "an existing id");
+        const auto& m = s.materials()[id];
+        bp::dict d;
+        d["E"] = m.E;
+        d["nu"] = m.nu;
+        d["rho"] = m.rho;
+        d["planeStress"] = m.planeStress;
+        d["lambda"] = m.lambda;
+        d["mu"] = m.mu;
+        d["waveSpeed"] = m.waveSpeed();
+        return d;
+    }
+
+    static void expose(const char* name)
+    {
+        bp::class_<Sv, std::shared_ptr<Sv>, boost::noncopyable>(name, bp::no_init)
+            .def("__init__", bp::make_constructor(&make, bp::default_call_policies(),
+                                                  (bp::arg("h"), bp::arg("ppc") = 2, bp::arg("massCutoff") = 1e-6,
+                                                   bp::arg("padding") = 3)))
+            .add_property("dim", +[](const Sv&) { return D; })
+            .add_property("time", &Sv::time, &Sv::setTime)
+            .add_property("steps", &Sv::steps)
+            .add_property("numPoints", +[](const Sv& s) { return static_cast<long>(s.points().size()); })
+            .add_property("numNodes", +[](const Sv& s) { return s.grid().numNodes(); })
+            .add_property("initialized", &Sv::initialized)
+            .add_property("gravity", &gravity, &setGravity)
+            .def("addMaterial", &Sv::addMaterial, (bp::arg("E"), bp::arg("nu"), bp::arg("rho"), bp::arg("planeStress") = false))
+            .def("materialInfo", &materialInfo)
+            .def("addPoints", &addPoints, (bp::arg("positions"), bp::arg("velocities"), bp::arg("volumes"), bp::arg("material")))
+            .def("setDomain", &setDomain)
+            .def("initialize", &Sv::initialize)
+            .def("addVelocityCondition", &addVelocityCondition,
+                 (bp::arg("nodes"), bp::arg("points"), bp::arg("mask"), bp::arg("velocity"), bp::arg("rampTime") = 0.0))
+            .def("setConditionVelocity", &setConditionVelocity)
+            .def("addTraction", &addTraction, (bp::arg("points"), bp::arg("traction"), bp::arg("rampTime"), bp::arg("layer")))
+            .def("reaction", &reaction)
+            .def("criticalTimeStep", &Sv::criticalTimeStep)
+            .def("step", &step, (bp::arg("dt"), bp::arg("nThreads") = 1))
+            .def("kineticEnergy", &Sv::kineticEnergy)
+            .def("elasticEnergy", &Sv::elasticEnergy)
+            .def("positions", &positions)
+            .def("velocities", &velocities)
+            .def("setVelocities", &setVelocities)
+            .def("stress", &stress)
+            .def("strain", &strain)
+            .def("psiPlus", &psiPlus)
+            .def("psiMinus", &psiMinus)
+            .def("history", &history)
+            .def("damage", &damage)
+            .def("volume", &volume)
+            .def("mass", &mass)
+            .def("material", &material)
+            .def("nodePositions", &nodePositions)
+            .def("gridShape", &gridShape)
+            .def("gridOrigin", &gridOrigin);
+    }
+};
+
+}  // namespace
+
+BOOST_PYTHON_MODULE(_eigenmpm)
+{
+    np::initialize();
+    bp::def("checkElasticMaterial",
+            +[](double E, double nu, double rho, bool planeStress) { ElasticMaterial::make(E, nu, rho, planeStress, 3); },
+            (bp::arg("E"), bp::arg("nu"), bp::arg("rho"), bp::arg("planeStress") = false),
+            "Raises ValueError naming the first of E, nu, rho outside its allowed range.");
+    Bind<Solver2Linear>::expose("Solver2Linear");
+    Bind<Solver2GIMP>::expose("Solver2GIMP");
+    Bind<Solver3Linear>::expose("Solver3Linear");
+    Bind<Solver3GIMP>::expose("Solver3GIMP");
+}
