@@ -1,0 +1,282 @@
+// Throughput benchmark of one explicit step (DESIGN.md "Performance design"): an elastic block
+// on a fixed base, vibrating from a sinusoidal plus random initial velocity field, so that the
+// stresses are nonzero and the spectral split takes all of its branches.
+//
+// Points lie on a lattice of spacing h/ppc (x = (i + 1/2) h/ppc) with ppc = 2. For each case and
+// size the block is built afresh for every thread count, stepped a few times to warm up, then
+// timed for at least --min-time seconds of step() calls. Reported: particle-steps per second
+// (points x steps / wall seconds) and the ratio to the 1-thread run.
+//
+// Determinism: the first thread count of a size fixes a step count K; every later run of that
+// size records a checksum of the state after K timed steps, and the benchmark checks that the
+// checksums are bitwise equal (the solver must not depend on the thread count).
+//
+//   bench_block [--sizes 1e5,1e6] [--threads 1,2] [--min-time 3] [--warmup 3]
+//               [--cases gimp2,linear2,gimp3] [--size3d 1e5] [--quick]
+//
+// --quick is --sizes 2e4 --size3d 2e4 --min-time 0.3 --warmup 1.
+// Output: a table on stdout, then one JSON object per line (prefix "JSON ") per run.
+#include <chrono>
+#include <cinttypes>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <random>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "Solver.hpp"
+
+namespace {
+
+struct Options {
+    std::vector<double> sizes{1e5, 1e6};
+    std::vector<int> threads{1, 2};
+    std::vector<std::string> cases{"gimp2", "linear2", "gimp3"};
+    double size3d = 1e5;
+    double minTime = 3.0;
+    int warmup = 3;
+};
+
+struct Result {
+    std::string caseName;
+    long points = 0;
+    int threads = 0;
+    long steps = 0;
+    double wall = 0, pps = 0, ratio = 0;
+    std::uint64_t checksum = 0;
+    bool checked = false, deterministic = true;
+};
+
+template <class T> std::vector<T> splitList(const std::string& s)
+{
+    std::vector<T> out;
+    std::stringstream ss(s);
+    std::string item;
+    while (std::getline(ss, item, ','))
+        if (!item.empty()) out.push_back(static_cast<T>(std::stod(item)));
+    return out;
+}
+
+std::vector<std::string> splitNames(const std::string& s)
+{
+    std::vector<std::string> out;
+    std::stringstream ss(s);
+    std::string item;
+    while (std::getline(ss, item, ','))
+        if (!item.empty()) out.push_back(item);
+    return out;
+}
+
+[[noreturn]] void usage(const char* msg)
+{
+    std::fprintf(stderr,
+                 "bench_block: %s\nusage: bench_block [--sizes 1e5,1e6] [--threads 1,2] [--min-time S]\n"
+                 "       [--warmup N] [--cases gimp2,linear2,gimp3] [--size3d N] [--quick]\n",
+                 msg);
+    std::exit(2);
+}
+
+Options parse(int argc, char** argv)
+{
+    Options o;
+    for (int i = 1; i < argc; ++i) {
+        const std::string a = argv[i];
+        auto next = [&]() -> std::string {
+            if (i + 1 >= argc) usage(("missing value after " + a).c_str());
+            return argv[++i];
+        };
+        if (a == "--sizes") o.sizes = splitList<double>(next());
+        else if (a == "--threads") o.threads = splitList<int>(next());
+        else if (a == "--min-time") o.minTime = std::stod(next());
+        else if (a == "--warmup") o.warmup = std::stoi(next());
+        else if (a == "--cases") o.cases = splitNames(next());
+        else if (a == "--size3d") o.size3d = std::stod(next());
+        else if (a == "--quick") {
+            o.sizes = {2e4};
+            o.size3d = 2e4;
+            o.minTime = 0.3;
+            o.warmup = 1;
+        } else if (a == "-h" || a == "--help") usage("help");
+        else usage(("unknown argument " + a).c_str());
+    }
+    if (o.sizes.empty() || o.threads.empty() || o.cases.empty()) usage("empty list");
+    for (int t : o.threads)
+        if (t < 1) usage("thread counts must be >= 1");
+    return o;
+}
+
+/// FNV-1a over the bytes of the point positions, velocities and stresses.
+template <int D> std::uint64_t checksum(const emp::MaterialPoints<D>& P)
+{
+    std::uint64_t h = 1469598103934665603ull;
+    auto mix = [&](const double* d, std::size_t n) {
+        const auto* b = reinterpret_cast<const unsigned char*>(d);
+        for (std::size_t i = 0; i < n * sizeof(double); ++i) {
+            h ^= b[i];
+            h *= 1099511628211ull;
+        }
+    };
+    for (std::size_t p = 0; p < P.size(); ++p) {
+        mix(P.x[p].data(), D);
+        mix(P.v[p].data(), D);
+        mix(P.stress[p].data(), D * D);
+    }
+    return h;
+}
+
+/// Builds the block: n[d] points per direction on the h/ppc lattice, bottom nodes fixed.
+template <int D, class K> emp::Solver<D, K> makeBlock(const std::array<int, D>& n)
+{
+    const double h = 0.01, E = 1e7, nu = 0.3, rho = 1000.0;
+    const int ppc = 2;
+    emp::SolverSettings s;
+    s.h = h;
+    s.ppc = ppc;
+    emp::Solver<D, K> solver(s);
+    const int mat = solver.addMaterial(E, nu, rho, false);
+    const double dx = h / ppc, vol = std::pow(dx, D);
+    const double c = solver.materials()[mat].waveSpeed();
+    const double amp = 0.01 * c;  // strain amplitude of order amp / c = 1%
+    Eigen::Vector3d L = Eigen::Vector3d::Ones();
+    for (int d = 0; d < D; ++d) L[d] = n[d] * dx;
+    std::mt19937_64 rng(12345);
+    std::uniform_real_distribution<double> uni(-1.0, 1.0);
+    long total = 1;
+    for (int d = 0; d < D; ++d) total *= n[d];
+    for (long k = 0; k < total; ++k) {
+        long r = k;
+        Eigen::Vector3d x = Eigen::Vector3d::Zero(), v = Eigen::Vector3d::Zero();
+        for (int d = 0; d < D; ++d) {
+            x[d] = (r % n[d] + 0.5) * dx;
+            r /= n[d];
+        }
+        // A smooth mode (shear and stretch) plus a 20% random field: tension, compression and
+        // mixed principal strains all occur.
+        const double sx = std::sin(M_PI * x[0] / L[0]), sy = std::sin(M_PI * x[D - 1] / L[D - 1]);
+        v[0] = amp * sy;
+        v[D - 1] = amp * sx * sy;
+        for (int d = 0; d < D; ++d) v[d] += 0.2 * amp * uni(rng);
+        solver.addPoint(x, v, vol, mat);
+    }
+    solver.initialize();
+    // Fixed base: every node on or below the block's bottom face (last axis) is held at rest.
+    const auto& g = solver.grid();
+    std::vector<int> base;
+    for (int I = 0; I < g.numNodes(); ++I)
+        if (g.nodePosition(I)[D - 1] <= 1e-12) base.push_back(I);
+    solver.addVelocityCondition(base, {}, (1u << D) - 1, Eigen::Vector3d::Zero(), 0.0);
+    return solver;
+}
+
+using Clock = std::chrono::steady_clock;
+
+/// One run: fresh block, warm-up, then timed steps until both minTime and minSteps are reached.
+/// The checksum is taken after exactly `checkAt` timed steps (0: after the last one).
+template <int D, class K>
+Result runOnce(const std::string& name, const std::array<int, D>& n, int threads, const Options& o,
+               long minSteps, long checkAt)
+{
+    auto solver = makeBlock<D, K>(n);
+    const double dt = 0.5 * solver.criticalTimeStep();
+    for (int i = 0; i < o.warmup; ++i) solver.step(dt, threads);
+    Result r;
+    r.caseName = name;
+    r.points = static_cast<long>(solver.points().size());
+    r.threads = threads;
+    double wall = 0;
+    long steps = 0;
+    while (wall < o.minTime || steps < minSteps) {
+        const auto t0 = Clock::now();
+        solver.step(dt, threads);
+        wall += std::chrono::duration<double>(Clock::now() - t0).count();
+        ++steps;
+        if (checkAt > 0 && steps == checkAt) r.checksum = checksum(solver.points());
+    }
+    if (checkAt <= 0) r.checksum = checksum(solver.points());
+    r.steps = steps;
+    r.wall = wall;
+    r.pps = static_cast<double>(r.points) * steps / wall;
+    return r;
+}
+
+template <int D, class K>
+void runCase(const std::string& name, double size, const Options& o, std::vector<Result>& out)
+{
+    // Near-cubic block of about `size` points; in 2D twice as wide as tall keeps it a "block".
+    std::array<int, D> n;
+    if constexpr (D == 2) {
+        const int ny = std::max(4, static_cast<int>(std::lround(std::sqrt(size / 2.0))));
+        n = {std::max(4, static_cast<int>(std::lround(size / ny))), ny};
+    } else {
+        const int m = std::max(4, static_cast<int>(std::lround(std::cbrt(size))));
+        n = {m, m, m};
+    }
+    long firstSteps = 0;
+    double firstPps = 0;
+    std::uint64_t firstSum = 0;
+    for (std::size_t k = 0; k < o.threads.size(); ++k) {
+        Result r = runOnce<D, K>(name, n, o.threads[k], o, k == 0 ? 0 : firstSteps, k == 0 ? 0 : firstSteps);
+        if (k == 0) {
+            firstSteps = r.steps;
+            firstPps = r.pps;
+            firstSum = r.checksum;
+        } else {
+            r.checked = true;
+            r.deterministic = r.checksum == firstSum;
+        }
+        r.ratio = r.pps / firstPps;
+        std::fprintf(stderr, "  %-16s %9ld points  %2d threads  %6ld steps  %7.2f s  %.3e particle-steps/s\n",
+                     name.c_str(), r.points, r.threads, r.steps, r.wall, r.pps);
+        out.push_back(r);
+    }
+}
+
+}  // namespace
+
+int main(int argc, char** argv)
+{
+    const Options o = parse(argc, argv);
+    std::vector<Result> results;
+    try {
+        for (const auto& c : o.cases) {
+            if (c == "gimp2")
+                for (double s : o.sizes) runCase<2, emp::GimpKernel>("2D uGIMP", s, o, results);
+            else if (c == "linear2")
+                for (double s : o.sizes) runCase<2, emp::LinearKernel>("2D linear", s, o, results);
+            else if (c == "gimp3")
+                runCase<3, emp::GimpKernel>("3D uGIMP", o.size3d, o, results);
+            else if (c == "linear3")
+                runCase<3, emp::LinearKernel>("3D linear", o.size3d, o, results);
+            else
+                usage(("unknown case " + c + " (known: gimp2, linear2, gimp3, linear3)").c_str());
+        }
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "bench_block: %s\n", e.what());
+        return 1;
+    }
+
+    std::printf("\n%-10s %9s %7s %7s %8s %16s %8s %s\n", "case", "points", "threads", "steps",
+                "wall_s", "particle-steps/s", "ratio", "same result as 1st");
+    bool allSame = true;
+    for (const auto& r : results) {
+        std::printf("%-10s %9ld %7d %7ld %8.2f %16.4g %8.3f %s\n", r.caseName.c_str(), r.points, r.threads,
+                    r.steps, r.wall, r.pps, r.ratio, r.checked ? (r.deterministic ? "bitwise" : "DIFFERS") : "-");
+        allSame = allSame && r.deterministic;
+    }
+    std::printf("\n");
+    for (const auto& r : results)
+        std::printf("JSON {\"case\": \"%s\", \"points\": %ld, \"threads\": %d, \"steps\": %ld, \"wall_time_s\": %.4f, "
+                    "\"particle_steps_per_s\": %.6g, \"ratio_to_first_thread_count\": %.4f, "
+                    "\"checksum\": \"%016" PRIx64 "\", \"bitwise_equal_to_first\": %s}\n",
+                    r.caseName.c_str(), r.points, r.threads, r.steps, r.wall, r.pps, r.ratio, r.checksum,
+                    r.checked ? (r.deterministic ? "true" : "false") : "null");
+    if (!allSame) {
+        std::fprintf(stderr, "bench_block: results differ between thread counts (determinism broken)\n");
+        return 3;
+    }
+    return 0;
+}

@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# Builds (if needed) and runs the step-throughput benchmark (bench/bench_block.cpp), printing the
+# machine first. `make bench` calls this. Arguments are passed to bench_block, e.g.
+#   bash bench/run.sh --quick
+#   bash bench/run.sh --sizes 1e5,1e6 --threads 1,2 --min-time 3 --cases gimp2,linear2,gimp3
+# Environment: BUILD (build directory, default build), PYTHON (default /usr/bin/python3.11).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+BUILD=${BUILD:-build}
+PYTHON=${PYTHON:-/usr/bin/python3.11}
+
+if [ ! -f "$BUILD/CMakeCache.txt" ]; then
+  cmake -S . -B "$BUILD" -DCMAKE_BUILD_TYPE=Release -DPython3_EXECUTABLE="$PYTHON" > /dev/null
+fi
+# Re-running cmake picks up bench/*.cpp added since the last configure (CONFIGURE_DEPENDS).
+cmake --build "$BUILD" --target bench_block -j "$(nproc)" > /dev/null
+
+echo "== machine"
+echo "host:       $(uname -n) ($(uname -sr))"
+echo "cpus:       $(nproc) (nproc)"
+echo "cpu model:  $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2- | sed 's/^ *//')"
+echo "cpu id:     family $(grep -m1 '^cpu family' /proc/cpuinfo | cut -d: -f2 | tr -d ' ') model $(grep -m1 '^model[[:space:]]*:' /proc/cpuinfo | cut -d: -f2 | tr -d ' '), $(grep -m1 '^cpu MHz' /proc/cpuinfo | cut -d: -f2 | tr -d ' ') MHz, avx2: $(grep -qw avx2 /proc/cpuinfo && echo yes || echo no), avx512f: $(grep -qw avx512f /proc/cpuinfo && echo yes || echo no)"
+echo "compiler:   $(${CXX:-c++} --version 2>/dev/null | head -n1)"
+echo "build type: $(grep -m1 '^CMAKE_BUILD_TYPE:' "$BUILD/CMakeCache.txt" | cut -d= -f2)"
+echo "load avg:   $(cut -d' ' -f1-3 /proc/loadavg) (timings are noisy when other jobs run)"
+echo "date:       $(date -u +%Y-%m-%dT%H:%M:%SZ)   commit: $(git rev-parse --short HEAD 2>/dev/null || echo n/a)"
+echo
+echo "== bench_block $*"
+"$BUILD/bench_block" "$@"
