@@ -18,7 +18,7 @@ struct SolverSettings {
     double h = 0;          ///< cell size, m
     int ppc = 2;           ///< points per cell per direction (sets the uGIMP half-width)
     Eigen::Vector3d gravity = Eigen::Vector3d::Zero();  ///< body force b, m/s2
-    double massCutoff = 1e-10;  ///< nodes lighter than this fraction of the mean point mass are void
+    double massCutoff = 1e-14;  ///< nodes lighter than this fraction of the mean point mass are void
     int padding = 3;           ///< cells added around the points when the grid is sized automatically
 };
 

@@ -220,7 +220,7 @@ template <class Sv> struct Bind {
     {
         bp::class_<Sv, std::shared_ptr<Sv>, boost::noncopyable>(name, bp::no_init)
             .def("__init__", bp::make_constructor(&make, bp::default_call_policies(),
-                                                  (bp::arg("h"), bp::arg("ppc") = 2, bp::arg("massCutoff") = 1e-10,
+                                                  (bp::arg("h"), bp::arg("ppc") = 2, bp::arg("massCutoff") = 1e-14,
                                                    bp::arg("padding") = 3)))
             .add_property("dim", +[](const Sv&) { return D; })
             .add_property("time", &Sv::time, &Sv::setTime)

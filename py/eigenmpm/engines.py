@@ -120,7 +120,7 @@ class MpmEngine(PyRunner):
         Param("domain", None, "m", "(lo, hi) corners of the grid; default: bounding box of the points "
                                    "plus `padding` cells, fixed at the first step"),
         Param("padding", 3, "cells", "cells added around the points when the grid is sized automatically"),
-        Param("massCutoff", 1e-10, "", "nodes lighter than this fraction of the mean point mass carry "
+        Param("massCutoff", 1e-14, "", "nodes lighter than this fraction of the mean point mass carry "
                                       "no velocity (small-mass cut-off)"),
         Param("threads", None, "", "OpenMP threads; default O.numThreads (yade -j N)"),
     )
