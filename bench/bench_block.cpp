@@ -12,8 +12,10 @@
 // checksums are bitwise equal (the solver must not depend on the thread count).
 //
 //   bench_block [--sizes 1e5,1e6] [--threads 1,2] [--min-time 3] [--warmup 3]
-//               [--cases gimp2,linear2,gimp3] [--size3d 1e5] [--quick]
+//               [--cases gimp2,linear2,gimp3] [--size3d 1e5] [--steps N] [--quick]
 //
+// --steps N times exactly N steps per run instead of --min-time (the checksums then compare
+// builds: an optimisation that keeps the arithmetic must keep them).
 // --quick is --sizes 2e4 --size3d 2e4 --min-time 0.3 --warmup 1.
 // Output: a table on stdout, then one JSON object per line (prefix "JSON ") per run.
 #include <chrono>
@@ -39,6 +41,7 @@ struct Options {
     double size3d = 1e5;
     double minTime = 3.0;
     int warmup = 3;
+    long steps = 0;  ///< > 0: exactly this many timed steps (for comparing checksums between builds)
 };
 
 struct Result {
@@ -75,7 +78,7 @@ std::vector<std::string> splitNames(const std::string& s)
 {
     std::fprintf(stderr,
                  "bench_block: %s\nusage: bench_block [--sizes 1e5,1e6] [--threads 1,2] [--min-time S]\n"
-                 "       [--warmup N] [--cases gimp2,linear2,gimp3] [--size3d N] [--quick]\n",
+                 "       [--warmup N] [--cases gimp2,linear2,gimp3] [--size3d N] [--steps N] [--quick]\n",
                  msg);
     std::exit(2);
 }
@@ -93,6 +96,7 @@ Options parse(int argc, char** argv)
         else if (a == "--threads") o.threads = splitList<int>(next());
         else if (a == "--min-time") o.minTime = std::stod(next());
         else if (a == "--warmup") o.warmup = std::stoi(next());
+        else if (a == "--steps") o.steps = std::stol(next());
         else if (a == "--cases") o.cases = splitNames(next());
         else if (a == "--size3d") o.size3d = std::stod(next());
         else if (a == "--quick") {
@@ -189,7 +193,7 @@ Result runOnce(const std::string& name, const std::array<int, D>& n, int threads
     r.threads = threads;
     double wall = 0;
     long steps = 0;
-    while (wall < o.minTime || steps < minSteps) {
+    while (o.steps > 0 ? steps < o.steps : (wall < o.minTime || steps < minSteps)) {
         const auto t0 = Clock::now();
         solver.step(dt, threads);
         wall += std::chrono::duration<double>(Clock::now() - t0).count();
