@@ -25,6 +25,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <ctime>
 #include <random>
 #include <sstream>
 #include <string>
@@ -49,7 +50,7 @@ struct Result {
     long points = 0;
     int threads = 0;
     long steps = 0;
-    double wall = 0, pps = 0, ratio = 0;
+    double wall = 0, cpu = 0, pps = 0, ratio = 0;
     std::uint64_t checksum = 0;
     bool checked = false, deterministic = true;
 };
@@ -178,6 +179,15 @@ template <int D, class K> emp::Solver<D, K> makeBlock(const std::array<int, D>& 
 
 using Clock = std::chrono::steady_clock;
 
+/// CPU time of the whole process (all threads), s: on a loaded machine wall time includes the
+/// waits for a core, CPU time does not (a 1-thread run then still measures the code).
+double cpuSeconds()
+{
+    timespec t;
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+    return t.tv_sec + 1e-9 * t.tv_nsec;
+}
+
 /// One run: fresh block, warm-up, then timed steps until both minTime and minSteps are reached.
 /// The checksum is taken after exactly `checkAt` timed steps (0: after the last one).
 template <int D, class K>
@@ -191,11 +201,13 @@ Result runOnce(const std::string& name, const std::array<int, D>& n, int threads
     r.caseName = name;
     r.points = static_cast<long>(solver.points().size());
     r.threads = threads;
-    double wall = 0;
+    double wall = 0, cpu = 0;
     long steps = 0;
     while (o.steps > 0 ? steps < o.steps : (wall < o.minTime || steps < minSteps)) {
         const auto t0 = Clock::now();
+        const double c0 = cpuSeconds();
         solver.step(dt, threads);
+        cpu += cpuSeconds() - c0;
         wall += std::chrono::duration<double>(Clock::now() - t0).count();
         ++steps;
         if (checkAt > 0 && steps == checkAt) r.checksum = checksum(solver.points());
@@ -203,6 +215,7 @@ Result runOnce(const std::string& name, const std::array<int, D>& n, int threads
     if (checkAt <= 0) r.checksum = checksum(solver.points());
     r.steps = steps;
     r.wall = wall;
+    r.cpu = cpu;
     r.pps = static_cast<double>(r.points) * steps / wall;
     return r;
 }
@@ -263,20 +276,20 @@ int main(int argc, char** argv)
         return 1;
     }
 
-    std::printf("\n%-10s %9s %7s %7s %8s %16s %8s %s\n", "case", "points", "threads", "steps",
-                "wall_s", "particle-steps/s", "ratio", "same result as 1st");
+    std::printf("\n%-10s %9s %7s %7s %8s %8s %16s %8s %s\n", "case", "points", "threads", "steps",
+                "wall_s", "cpu_s", "particle-steps/s", "ratio", "same result as 1st");
     bool allSame = true;
     for (const auto& r : results) {
-        std::printf("%-10s %9ld %7d %7ld %8.2f %16.4g %8.3f %s\n", r.caseName.c_str(), r.points, r.threads,
-                    r.steps, r.wall, r.pps, r.ratio, r.checked ? (r.deterministic ? "bitwise" : "DIFFERS") : "-");
+        std::printf("%-10s %9ld %7d %7ld %8.2f %8.2f %16.4g %8.3f %s\n", r.caseName.c_str(), r.points, r.threads,
+                    r.steps, r.wall, r.cpu, r.pps, r.ratio, r.checked ? (r.deterministic ? "bitwise" : "DIFFERS") : "-");
         allSame = allSame && r.deterministic;
     }
     std::printf("\n");
     for (const auto& r : results)
-        std::printf("JSON {\"case\": \"%s\", \"points\": %ld, \"threads\": %d, \"steps\": %ld, \"wall_time_s\": %.4f, "
+        std::printf("JSON {\"case\": \"%s\", \"points\": %ld, \"threads\": %d, \"steps\": %ld, \"wall_time_s\": %.4f, \"cpu_time_s\": %.4f, "
                     "\"particle_steps_per_s\": %.6g, \"ratio_to_first_thread_count\": %.4f, "
                     "\"checksum\": \"%016" PRIx64 "\", \"bitwise_equal_to_first\": %s}\n",
-                    r.caseName.c_str(), r.points, r.threads, r.steps, r.wall, r.pps, r.ratio, r.checksum,
+                    r.caseName.c_str(), r.points, r.threads, r.steps, r.wall, r.cpu, r.pps, r.ratio, r.checksum,
                     r.checked ? (r.deterministic ? "true" : "false") : "null");
     if (!allSame) {
         std::fprintf(stderr, "bench_block: results differ between thread counts (determinism broken)\n");
