@@ -12,41 +12,6 @@ namespace emp {
 
 namespace {
 
-/// Weights N_Ip and gradients grad N_Ip of one point on its S^D support nodes (Eq 15).
-template <int D, class K> struct Stencil {
-    static constexpr int S = K::S;
-    int base[D];
-    double w[D][S], dw[D][S];
-
-    Stencil(const Vec<D>& x, const Grid<D>& g, double lp)
-    {
-        for (int d = 0; d < D; ++d) base[d] = K::eval((x[d] - g.origin[d]) * g.invh, lp, w[d], dw[d]);
-    }
-
-    /// Calls f(node index, N, grad N) for every support node, in a fixed order.
-    template <class F> void forEach(const Grid<D>& g, F&& f) const
-    {
-        if constexpr (D == 2) {
-            for (int j = 0; j < S; ++j) {
-                const int row = base[0] + (base[1] + j) * g.stride[1];
-                for (int i = 0; i < S; ++i)
-                    f(row + i, w[0][i] * w[1][j],
-                      Vec<2>(dw[0][i] * w[1][j] * g.invh, w[0][i] * dw[1][j] * g.invh));
-            }
-        } else {
-            for (int k = 0; k < S; ++k)
-                for (int j = 0; j < S; ++j) {
-                    const int row = base[0] + (base[1] + j) * g.stride[1] + (base[2] + k) * g.stride[2];
-                    const double wjk = w[1][j] * w[2][k];
-                    for (int i = 0; i < S; ++i)
-                        f(row + i, w[0][i] * wjk,
-                          Vec<3>(dw[0][i] * wjk * g.invh, w[0][i] * dw[1][j] * w[2][k] * g.invh,
-                                 w[0][i] * w[1][j] * dw[2][k] * g.invh));
-                }
-        }
-    }
-};
-
 template <int D> std::string str(const Vec<D>& v)
 {
     std::ostringstream s;
@@ -58,6 +23,35 @@ template <int D> std::string str(const Vec<D>& v)
 }
 
 }  // namespace
+
+template <int D, class K>
+void Solver<D, K>::Stencil::compute(const Vec<D>& x, const Grid<D>& g, double lp)
+{
+    for (int d = 0; d < D; ++d) base[d] = K::eval((x[d] - g.origin[d]) * g.invh, lp, w[d], dw[d]);
+}
+
+template <int D, class K>
+template <class F>
+void Solver<D, K>::Stencil::forEach(const Grid<D>& g, F&& f) const
+{
+    if constexpr (D == 2) {
+        for (int j = 0; j < S; ++j) {
+            const int row = base[0] + (base[1] + j) * g.stride[1];
+            for (int i = 0; i < S; ++i)
+                f(row + i, w[0][i] * w[1][j], Vec<2>(dw[0][i] * w[1][j] * g.invh, w[0][i] * dw[1][j] * g.invh));
+        }
+    } else {
+        for (int k = 0; k < S; ++k)
+            for (int j = 0; j < S; ++j) {
+                const int row = base[0] + (base[1] + j) * g.stride[1] + (base[2] + k) * g.stride[2];
+                const double wjk = w[1][j] * w[2][k];
+                for (int i = 0; i < S; ++i)
+                    f(row + i, w[0][i] * wjk,
+                      Vec<3>(dw[0][i] * wjk * g.invh, w[0][i] * dw[1][j] * w[2][k] * g.invh,
+                             w[0][i] * w[1][j] * dw[2][k] * g.invh));
+            }
+    }
+}
 
 template <int D, class K> Solver<D, K>::Solver(const SolverSettings& s) : settings_(s)
 {
@@ -254,7 +248,7 @@ void Solver<D, K>::scatter(int nThreads, F&& perPoint)
     for (int colour = 0; colour < 2; ++colour) {
 #pragma omp parallel for schedule(dynamic, 1) num_threads(nThreads)
         for (int s = colour; s < numStrips; s += 2)
-            for (int k = stripStart_[s]; k < stripStart_[s + 1]; ++k) perPoint(order_[k]);
+            for (int k = stripStart_[s]; k < stripStart_[s + 1]; ++k) perPoint(k);
     }
 }
 
@@ -310,9 +304,9 @@ template <int D, class K> void Solver<D, K>::step(double dt, int nThreads)
     auto& P = points_;
     auto& g = grid_;
     const double lp = lp_;
-    using St = Stencil<D, K>;
 
     binPoints();
+    stencil_.resize(np);
 #pragma omp parallel for schedule(static) num_threads(nThreads)
     for (int I = 0; I < nn; ++I) {
         g.mass[I] = 0;
@@ -320,9 +314,12 @@ template <int D, class K> void Solver<D, K>::step(double dt, int nThreads)
         g.force[I].setZero();
     }
 
-    // (2) P2G: nodal mass (Eq 12) and momentum P^{n-1/2} (Eq 25).
-    scatter(nThreads, [&](int p) {
-        const St st(P.x[p], g, lp);
+    // (2) P2G: nodal mass (Eq 12) and momentum P^{n-1/2} (Eq 25). The shape functions (15)
+    // are evaluated here once per point and kept for stages (5)-(6) and (8).
+    scatter(nThreads, [&](int k) {
+        const int p = order_[k];
+        Stencil& st = stencil_[k];
+        st.compute(P.x[p], g, lp);
         const double mp = P.mass[p];
         const Vec<D> mv = mp * P.v[p];
         st.forEach(g, [&](int I, double N, const Vec<D>&) {
@@ -343,8 +340,9 @@ template <int D, class K> void Solver<D, K>::step(double dt, int nThreads)
     // (5) Strain increment (Eq 27), stress by the spectral split (Eqs 2-7) with g(c) = c,
     // psi+/psi- (3, 4) and history H (22); (6) internal force (13) and body force (14).
     const Vec<D> gravity = settings_.gravity.head<D>();
-    scatter(nThreads, [&](int p) {
-        const St st(P.x[p], g, lp);
+    scatter(nThreads, [&](int k) {
+        const int p = order_[k];
+        const Stencil& st = stencil_[k];
         Mat<D> L = Mat<D>::Zero();
         st.forEach(g, [&](int I, double, const Vec<D>& grad) { L.noalias() += g.velocity[I] * grad.transpose(); });
         Mat<D>& eps = P.strain[p];
@@ -363,7 +361,8 @@ template <int D, class K> void Solver<D, K>::step(double dt, int nThreads)
     for (const auto& tc : tractions_) {
         const Vec<D> t = (rampFactor(time_, tc.rampTime) * tc.traction).head<D>();
         for (int p : tc.points) {
-            const St st(P.x[p], g, lp);
+            Stencil st;
+            st.compute(P.x[p], g, lp);
             const Vec<D> f = t * (P.volume[p] / tc.layer);
             st.forEach(g, [&](int I, double N, const Vec<D>&) { g.force[I] += N * f; });
         }
@@ -379,13 +378,15 @@ template <int D, class K> void Solver<D, K>::step(double dt, int nThreads)
         g.force[I] *= g.invMass[I];
     }
 
-    // (8) G2P: FLIP velocity update (Eq 30) and position from nodal momentum (Eq 31).
+    // (8) G2P: FLIP velocity update (Eq 30) and position from nodal momentum (Eq 31). Each
+    // point writes only itself; the loop runs in the binned order to stream the stencils.
     int firstNonFinite = INT_MAX, firstOffGrid = INT_MAX;
     double vmax2 = 0;
 #pragma omp parallel for schedule(static) num_threads(nThreads) \
     reduction(min : firstNonFinite, firstOffGrid) reduction(max : vmax2)
-    for (int p = 0; p < np; ++p) {
-        const St st(P.x[p], g, lp);
+    for (int k = 0; k < np; ++k) {
+        const int p = order_[k];
+        const Stencil& st = stencil_[k];
         Vec<D> a = Vec<D>::Zero(), vg = Vec<D>::Zero();
         st.forEach(g, [&](int I, double N, const Vec<D>&) {
             a += N * g.force[I];

@@ -72,6 +72,16 @@ public:
     const std::vector<VelocityCondition>& velocityConditions() const { return velocityConditions_; }
 
 private:
+    /// Weights N_Ip and gradients grad N_Ip of one point on its S^D support nodes (Eq 15).
+    /// Computed once per step, in P2G, and reused by the stress/force scatter and by G2P.
+    struct Stencil {
+        int base[D];
+        double w[D][S], dw[D][S];
+        void compute(const Vec<D>& x, const Grid<D>& g, double lp);
+        /// Calls f(node index, N, grad N) for every support node, in a fixed order.
+        template <class F> void forEach(const Grid<D>& g, F&& f) const;
+    };
+
     template <class F> void scatter(int nThreads, F&& perPoint);
     void binPoints();
     void applyVelocityConditions(double t, bool afterForces, double dt);
@@ -88,6 +98,7 @@ private:
     std::vector<TractionCondition> tractions_;
     std::vector<int> order_, stripStart_;  ///< points sorted (stably) by strip
     std::vector<int> stripOf_;
+    std::vector<Stencil> stencil_;  ///< stencil_[k] is that of point order_[k] in this step
     double time_ = 0, maxSpeed_ = 0;
     std::int64_t steps_ = 0;
 };
