@@ -340,9 +340,7 @@ template <int D, class K> void Solver<D, K>::step(double dt, int nThreads)
     // (5) Strain increment (Eq 27), stress by the spectral split (Eqs 2-7) with g(c) = c,
     // psi+/psi- (3, 4) and history H (22); (6) internal force (13) and body force (14).
     const Vec<D> gravity = settings_.gravity.head<D>();
-    scatter(nThreads, [&](int k) {
-        const int p = order_[k];
-        const Stencil& st = stencil_[k];
+    auto updateStress = [&](int p, const Stencil& st) {
         Mat<D> L = Mat<D>::Zero();
         st.forEach(g, [&](int I, double, const Vec<D>& grad) { L.noalias() += g.velocity[I] * grad.transpose(); });
         Mat<D>& eps = P.strain[p];
@@ -353,10 +351,25 @@ template <int D, class K> void Solver<D, K>::step(double dt, int nThreads)
         P.psiPlus[p] = sp.psiPlus;
         P.psiMinus[p] = sp.psiMinus;
         P.history[p] = std::max(P.history[p], sp.psiPlus);
+    };
+    auto scatterForce = [&](int p, const Stencil& st) {
         const Mat<D> vs = P.volume[p] * P.stress[p];
         const Vec<D> fb = P.mass[p] * gravity;
         st.forEach(g, [&](int I, double N, const Vec<D>& grad) { g.force[I] += N * fb - vs * grad; });
-    });
+    };
+    if (!erosion_) {
+        scatter(nThreads, [&](int k) {
+            updateStress(order_[k], stencil_[k]);
+            scatterForce(order_[k], stencil_[k]);
+        });
+    } else {
+        // (5.iv) Eigenerosion (Eqs 23-24) between the stress update and the forces, so an
+        // eroded point already acts with sigma- only in this step's internal force.
+#pragma omp parallel for schedule(static) num_threads(nThreads)
+        for (int k = 0; k < np; ++k) updateStress(order_[k], stencil_[k]);
+        erosion_->apply(P, materials_, steps_ + 1, time_ + dt, nThreads);
+        scatter(nThreads, [&](int k) { scatterForce(order_[k], stencil_[k]); });
+    }
     // Traction on boundary points (Eq 28); few points, applied serially in a fixed order.
     for (const auto& tc : tractions_) {
         const Vec<D> t = (rampFactor(time_, tc.rampTime) * tc.traction).head<D>();

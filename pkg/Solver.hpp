@@ -4,9 +4,11 @@
 #pragma once
 #include <Eigen/Dense>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "BoundaryConditions.hpp"
+#include "EigenErosion.hpp"
 #include "ElasticMaterial.hpp"
 #include "Grid.hpp"
 #include "MaterialPoints.hpp"
@@ -47,6 +49,10 @@ public:
     int addTraction(const std::vector<int>& points, const Eigen::Vector3d& traction, double rampTime,
                     double layer);
     void setGravity(const Eigen::Vector3d& g) { settings_.gravity = g; }
+    /// Attaches the eigenerosion stage (or detaches it with nullptr). Without it the step has no
+    /// fracture work at all.
+    void setErosion(std::shared_ptr<EigenErosion<D>> e) { erosion_ = std::move(e); }
+    const std::shared_ptr<EigenErosion<D>>& erosion() const { return erosion_; }
 
     // --- time stepping ------------------------------------------------------------------
     /// Largest stable dt: h / max over materials of (wave speed + current max point speed).
@@ -94,6 +100,7 @@ private:
     bool haveDomain_ = false, initialized_ = false;
     Vec<D> domainLo_, domainHi_;
     double massCutoffAbs_ = 0;
+    std::shared_ptr<EigenErosion<D>> erosion_;
     std::vector<VelocityCondition> velocityConditions_;
     std::vector<TractionCondition> tractions_;
     std::vector<int> order_, stripStart_;  ///< points sorted (stably) by strip

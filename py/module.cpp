@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "EigenErosion.hpp"
 #include "Errors.hpp"
 #include "Solver.hpp"
 
@@ -65,6 +66,35 @@ np::ndarray zeros(long rows, int cols, int cols2 = 0)
 struct NoGil {
     PyThreadState* state = PyEval_SaveThread();
     ~NoGil() { PyEval_RestoreThread(state); }
+};
+
+template <int D> struct BindErosion {
+    using Er = EigenErosion<D>;
+    static std::shared_ptr<Er> make(double Gc, double alpha, double kappa)
+    {
+        return std::make_shared<Er>(ErosionSettings{Gc, alpha, kappa});
+    }
+    /// (point id, step, time) of every erosion, in the order they happened.
+    static bp::list events(const Er& e)
+    {
+        bp::list l;
+        for (const auto& ev : e.events()) l.append(bp::make_tuple(ev.point, ev.step, ev.time));
+        return l;
+    }
+    static void expose(const char* name)
+    {
+        bp::class_<Er, std::shared_ptr<Er>, boost::noncopyable>(name, bp::no_init)
+            .def("__init__", bp::make_constructor(&make, bp::default_call_policies(),
+                                                  (bp::arg("Gc"), bp::arg("alpha"), bp::arg("kappa"))))
+            .add_property("Gc", +[](const Er& e) { return e.settings().Gc; })
+            .add_property("alpha", +[](const Er& e) { return e.settings().alpha; })
+            .add_property("kappa", +[](const Er& e) { return e.settings().kappa; })
+            .add_property("dissipatedEnergy", &Er::dissipatedEnergy)
+            .add_property("erodedCount", &Er::erodedCount)
+            .add_property("searchedLastStep", &Er::searchedLastStep)
+            .add_property("candidatesLastStep", &Er::candidatesLastStep)
+            .def("events", &events);
+    }
 };
 
 template <class Sv> struct Bind {
@@ -201,6 +231,24 @@ template <class Sv> struct Bind {
         o.head<D>() = s.grid().origin;
         return fromVec3(o);
     }
+    static void setErosion(Sv& s, bp::object e)
+    {
+        if (e.is_none()) {
+            s.setErosion(nullptr);
+            return;
+        }
+        s.setErosion(bp::extract<std::shared_ptr<EigenErosion<D>>>(e)());
+    }
+    static np::ndarray energyReleaseRate(Sv& s, bp::object ids, bool bruteForce)
+    {
+        require(s.erosion() != nullptr, "erosion", "none attached", "attach an EigenErosion first");
+        const auto list = toIntList(ids);
+        for (int p : list)
+            require(p >= 0 && p < static_cast<int>(s.points().size()), "point id", p, "an existing point");
+        const auto g = bruteForce ? s.erosion()->energyReleaseRateBruteForce(s.points(), list)
+                                  : s.erosion()->energyReleaseRate(s.points(), list);
+        return scalars(g);
+    }
     static bp::dict materialInfo(const Sv& s, int id)
     {
         require(id >= 0 && id < static_cast<int>(s.materials().size()), "material (id)", id, "an existing id");
@@ -257,7 +305,10 @@ template <class Sv> struct Bind {
             .def("material", &material)
             .def("nodePositions", &nodePositions)
             .def("gridShape", &gridShape)
-            .def("gridOrigin", &gridOrigin);
+            .def("gridOrigin", &gridOrigin)
+            .def("setErosion", &setErosion)
+            .def("energyReleaseRate", &energyReleaseRate, (bp::arg("ids"), bp::arg("bruteForce") = false))
+            .add_property("erosion", +[](const Sv& s) { return s.erosion(); });
     }
 };
 
@@ -270,6 +321,8 @@ BOOST_PYTHON_MODULE(_eigenmpm)
             +[](double E, double nu, double rho, bool planeStress) { ElasticMaterial::make(E, nu, rho, planeStress, 3); },
             (bp::arg("E"), bp::arg("nu"), bp::arg("rho"), bp::arg("planeStress") = false),
             "Raises ValueError naming the first of E, nu, rho outside its allowed range.");
+    BindErosion<2>::expose("Erosion2");
+    BindErosion<3>::expose("Erosion3");
     Bind<Solver2Linear>::expose("Solver2Linear");
     Bind<Solver2GIMP>::expose("Solver2GIMP");
     Bind<Solver3Linear>::expose("Solver3Linear");

@@ -10,8 +10,9 @@ Put the engines in ``O.engines`` beside YADE's own::
                  em.PlotRecorder(iterPeriod=10), em.Progress(endIter=10000)]
 """
 from .engines import MpmEngine, VelocityBC, callEvery, criticalTimeStep, findEngine, mpmEngines
+from .fracture import EigenErosion, kappaRange
 from .materials import ElasticMaterial
 from .recorders import PlotRecorder, Progress, VTKRecorder
 
-__all__ = ["MpmEngine", "VelocityBC", "ElasticMaterial", "VTKRecorder", "PlotRecorder", "Progress",
+__all__ = ["MpmEngine", "EigenErosion", "kappaRange", "VelocityBC", "ElasticMaterial", "VTKRecorder", "PlotRecorder", "Progress",
            "callEvery", "criticalTimeStep", "findEngine", "mpmEngines"]

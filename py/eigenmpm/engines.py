@@ -149,7 +149,9 @@ class MpmEngine(PyRunner):
         self.command = _register(self)
         self.bcs = {}
         self.recorders = []
+        self.physics = {}  # label -> attached physics engine (EigenErosion, ...)
         self._materials = {}
+        self._started = False
 
     # --- specimen -------------------------------------------------------------------------
     def material(self, mat):
@@ -248,7 +250,16 @@ class MpmEngine(PyRunner):
         """h / (wave speed + max point speed): the largest O.dt this engine accepts, in s."""
         return self.solver.criticalTimeStep()
 
+    def _attachPhysics(self):
+        # Physics engines placed in O.engines attach their stage before the first step.
+        for e in O.engines:
+            if hasattr(e, "attach") and e is not self and findEngine(e.engine) is self:
+                e.attach(self)
+
     def _action(self):
+        if not self._started:
+            self._attachPhysics()
+            self._started = True
         t = O.time
         self.solver.time = t
         for bc in self.bcs.values():
@@ -278,6 +289,8 @@ class MpmEngine(PyRunner):
             r = self.solver.reaction(bc.id)
             for k in range(self.dim):
                 d[f"{self.label}_{name}_R{'xyz'[k]}"] = r[k]
+        for phys in self.physics.values():
+            d.update(phys.plotData())
         return d
 
 

@@ -1,0 +1,67 @@
+// Eigenerosion (paper Section 3.3.2, Eqs 17-24 and 33; search of Section 4.2). After the stress
+// update of a step, a point p erodes when its effective energy release rate
+//     G_p = alpha kappa (sum_q m_q H_q) / (sum_q m_q)       (Eq 23, q intact, |x_q - x_p| <= kappa)
+// reaches Gc (Eq 24). Every point qualifying in a step erodes at once, so the eroded set does not
+// depend on the order of the points or on the thread count. An eroded point keeps only the
+// compressive stress sigma- (g(c) = c = 0) for ever. Because G_p <= alpha kappa max_q H_q, a step
+// in which alpha kappa H < Gc at every intact point needs no neighbour search at all, and only
+// points within kappa of a point with alpha kappa H >= Gc (a source) can erode.
+#pragma once
+#include <cstdint>
+#include <vector>
+
+#include "CellList.hpp"
+#include "ElasticMaterial.hpp"
+#include "MaterialPoints.hpp"
+
+namespace emp {
+
+struct ErosionSettings {
+    double Gc = 0;     ///< critical energy release rate, J/m2
+    double alpha = 0;  ///< normalising constant (paper: 1 to 2)
+    double kappa = 0;  ///< neighbourhood radius, m
+};
+
+/// One erosion event: which point, in which step, at which time.
+struct ErosionEvent {
+    int point;
+    std::int64_t step;
+    double time;
+};
+
+template <int D> class EigenErosion {
+public:
+    /// Validates Gc, alpha, kappa > 0 (finite).
+    explicit EigenErosion(const ErosionSettings& s);
+
+    /// Evaluates Eq 23 where needed and erodes the points with G_p >= Gc. Returns how many eroded.
+    int apply(MaterialPoints<D>& P, const std::vector<ElasticMaterial>& materials, std::int64_t step,
+              double time, int nThreads);
+
+    /// G_p of every listed point by brute force over all intact points (for tests and
+    /// diagnostics; O(N^2)).
+    std::vector<double> energyReleaseRateBruteForce(const MaterialPoints<D>& P, const std::vector<int>& ids) const;
+    /// G_p of the listed points with the cell list over all intact points.
+    std::vector<double> energyReleaseRate(const MaterialPoints<D>& P, const std::vector<int>& ids);
+
+    const ErosionSettings& settings() const { return settings_; }
+    double dissipatedEnergy() const { return dissipated_; }  ///< Eq 33, J
+    std::size_t erodedCount() const { return events_.size(); }
+    const std::vector<ErosionEvent>& events() const { return events_; }
+    bool searchedLastStep() const { return searched_; }   ///< whether the last apply() searched
+    std::size_t candidatesLastStep() const { return candidates_.size(); }
+
+private:
+    void buildList(const MaterialPoints<D>& P, const std::vector<int>& around, double margin);
+    double rate(const MaterialPoints<D>& P, int p) const;
+
+    ErosionSettings settings_;
+    double dissipated_ = 0;
+    std::vector<ErosionEvent> events_;
+    bool searched_ = false;
+    CellList<D> cells_;
+    std::vector<int> sources_, binned_, candidates_, eroding_;
+    std::vector<char> mark_;
+};
+
+}  // namespace emp
