@@ -1,0 +1,165 @@
+"""Eigenerosion (paper Eqs 22-24, 33): closed-form onset, irreversibility, determinism,
+energy bookkeeping and the neighbour search."""
+import math
+import warnings
+
+import numpy as np
+import pytest
+from yade import O, pack
+
+import eigenmpm as em
+
+H = 0.01
+
+
+def stretched_bar(rate, Gc=50.0, alpha=1.5, kappa=1.1 * H, threads=None):
+    """A bar whose every grid node moves with v = (rate x, 0): uniform uniaxial strain rate."""
+    mpm = em.MpmEngine(h=H, domain=((-0.05, -0.05, 0), (0.25, 0.1, 0)), threads=threads)
+    mpm.fill(pack.inAlignedBox((0, 0, 0), (0.2, 0.05, 0)), em.ElasticMaterial(E=1e9, nu=0.25, rho=1000))
+    for xi in np.unique(mpm.solver.nodePositions()[:, 0]):
+        mpm.velocityBC(region=pack.inAlignedBox((xi - 1e-6, -1, -1), (xi + 1e-6, 1, 1)), components="xy",
+                       velocity=(rate * xi, 0, 0))
+    er = em.EigenErosion(engine=mpm, Gc=Gc, alpha=alpha, kappa=kappa, iterPeriod=1)
+    O.engines = [mpm, er]
+    O.dt = 0.5 * mpm.criticalTimeStep()
+    return mpm, er
+
+
+def test_uniform_tension_erodes_when_alpha_kappa_H_reaches_Gc_within_one_step():
+    Gc, alpha, kappa, rate = 50.0, 1.5, 1.1 * H, 1.0
+    mpm, er = stretched_bar(rate, Gc, alpha, kappa)
+    info = mpm.solver.materialInfo(0)
+    # Uniaxial strain (eps, 0): psi+ = (lambda + 2 mu) eps^2 / 2 = H; G_p = alpha kappa H (Eq 23).
+    eps_c = math.sqrt(2 * Gc / (alpha * kappa * (info["lambda"] + 2 * info["mu"])))
+    step_c = math.ceil(eps_c / (rate * O.dt))  # the strain after step n is rate * n * dt
+    O.run(step_c - 1, True)
+    assert er.erodedCount() == 0
+    O.run(3, True)
+    steps = {s for _, s, _ in er.core.events()}
+    assert steps == {step_c}
+    assert er.erodedCount() == mpm.solver.numPoints
+    assert np.all(mpm.solver.damage() == 0)
+
+
+def test_pure_compression_never_erodes():
+    mpm, er = stretched_bar(-1.0, Gc=1e-6)
+    O.run(600, True)  # compressive strain 0.3 %, far beyond the tensile onset at this Gc
+    assert er.erodedCount() == 0
+    assert np.all(mpm.solver.history() == 0) and np.all(mpm.solver.damage() == 1)
+    assert not er.core.searchedLastStep
+
+
+def test_eroded_point_keeps_only_compressive_stress():
+    mpm, er = stretched_bar(1.0)
+    O.run(600, True)
+    assert er.erodedCount() == mpm.solver.numPoints
+    # Tension along x only (lateral strain held at 0): sigma- has no tensile principal part.
+    s = mpm.solver.stress()
+    assert np.all(np.linalg.eigvalsh(s[:, :2, :2]) <= 1e-9 * 1e9)
+
+
+def test_dissipated_energy_is_Gc_over_2kappa_times_eroded_volume():
+    mpm, er = stretched_bar(1.0)
+    O.run(600, True)
+    eroded = mpm.solver.damage() == 0
+    assert er.dissipatedEnergy() == pytest.approx(50.0 / (2 * 1.1 * H) * np.sum(mpm.solver.volume()[eroded]),
+                                                  rel=1e-12)
+
+
+def notched_plate(threads):
+    """A plate with an edge slit, pulled apart at top and bottom: a crack grows from the slit."""
+    h = 0.002
+    plate = pack.inAlignedBox((0, 0, 0), (0.1, 0.04, 0)) - pack.inAlignedBox((-1, 0.0195, -1), (0.03, 0.0205, 1))
+    mpm = em.MpmEngine(h=h, threads=threads)
+    mpm.fill(plate, em.ElasticMaterial(E=72e9, nu=0.22, rho=2440, planeStress=True))
+    mpm.velocityBC(points=pack.inAlignedBox((-1, 0.039, -1), (1, 1, 1)), components="y", velocity=(0, 2.0, 0))
+    mpm.velocityBC(points=pack.inAlignedBox((-1, -1, -1), (1, 0.001, 1)), components="y", velocity=(0, -2.0, 0))
+    er = em.EigenErosion(engine=mpm, Gc=135.0, alpha=2.0, kappaOverH=1.1, iterPeriod=1)
+    seen = []
+
+    def monotone():
+        d = mpm.solver.damage()
+        if seen:
+            assert np.all(d <= seen[-1]), "an eroded point healed"
+        seen.append(d)
+
+    O.engines = [mpm, er, em.callEvery(monotone)]
+    O.dt = 0.5 * mpm.criticalTimeStep()
+    return mpm, er
+
+
+def test_eroded_set_grows_only_and_is_identical_on_1_and_2_threads():
+    runs = []
+    for threads in (1, 2):
+        O.reset()
+        mpm, er = notched_plate(threads)
+        O.run(400, True)
+        runs.append((er.core.events(), mpm.solver.positions()))
+    assert 0 < len(runs[0][0]) < 2000  # a crack has started but not cut through
+    assert runs[0][0] == runs[1][0]
+    assert np.array_equal(runs[0][1], runs[1][1])
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_neighbour_search_equals_brute_force(dim):
+    rng = np.random.default_rng(7)
+    h = 0.013
+    kappa = 1.17 * h  # not a multiple of h, nor of the point spacing
+    mpm = em.MpmEngine(dim=dim, h=h)
+    mat = em.ElasticMaterial(E=1e9, nu=0.2, rho=1000)
+    n = 1500 if dim == 2 else 3000
+    cloud = rng.uniform(0, 0.12 if dim == 2 else 0.06, size=(n, 3))
+    if dim == 2:
+        cloud[:, 2] = 0
+    # Points exactly on the cell list's cell borders: a lattice of spacing kappa / 2 from the
+    # cloud's lower corner puts every other lattice line on a border.
+    lo = cloud.min(axis=0)
+    k = np.arange(6) * 0.5 * kappa
+    lat = np.stack(np.meshgrid(*([lo[0] + k, lo[1] + k] + ([lo[2] + k] if dim == 3 else [[0.0]])),
+                               indexing="ij"), -1).reshape(-1, 3)
+    mpm.addPoints(np.vstack([cloud, lat]), mat, volumes=rng.uniform(0.5, 2.0, len(cloud) + len(lat)) * 1e-6)
+    # Random history through a random strain state: step once with random velocities.
+    mpm.solver.setVelocities(rng.normal(0, 1.0, size=(mpm.solver.numPoints, 3)) * [1, 1, dim == 3])
+    er = em.EigenErosion(engine=mpm, Gc=1e12, alpha=1.5, kappa=kappa)
+    O.engines = [mpm]
+    O.dt = 0.5 * mpm.criticalTimeStep()
+    O.run(3, True)
+    assert np.all(mpm.solver.history() >= 0) and np.count_nonzero(mpm.solver.history()) > 100
+    ids = list(range(mpm.solver.numPoints))
+    fast = mpm.solver.energyReleaseRate(ids)
+    brute = mpm.solver.energyReleaseRate(ids, bruteForce=True)
+    assert fast == pytest.approx(brute, rel=1e-12, abs=0)
+    assert er.erodedCount() == 0
+
+
+def test_no_search_on_a_scene_that_never_breaks():
+    mpm = em.MpmEngine(h=H)
+    mpm.fill(pack.inAlignedBox((0, 0, 0), (0.1, 0.05, 0)), em.ElasticMaterial(E=1e9, nu=0.2, rho=1000),
+             velocity=(0, 1e-3, 0))
+    er = em.EigenErosion(Gc=1e3, alpha=1.5, kappaOverH=1.1)
+    O.engines = [mpm, er]
+    O.dt = 0.5 * mpm.criticalTimeStep()
+    O.run(50, True)
+    assert mpm.solver.erosion is er.core  # attached through O.engines
+    assert not er.core.searchedLastStep and er.core.candidatesLastStep == 0
+
+
+@pytest.mark.parametrize("kw, name", [(dict(Gc=0.0, kappa=0.01), "Gc"), (dict(Gc=-1.0, kappa=0.01), "Gc"),
+                                      (dict(Gc=10.0, alpha=0.0, kappa=0.01), "alpha"),
+                                      (dict(Gc=10.0, kappa=-0.01), "kappa"),
+                                      (dict(Gc=10.0, kappaOverH=0.0), "kappaOverH")])
+def test_parameters_validated(kw, name):
+    with pytest.raises(ValueError, match=f"{name} = .* is invalid; allowed: {name} > 0"):
+        em.EigenErosion(**kw)
+
+
+def test_warns_when_kappa_holds_only_the_point_itself():
+    mpm = em.MpmEngine(h=H)
+    mpm.fill(pack.inAlignedBox((0, 0, 0), (0.1, 0.05, 0)), em.ElasticMaterial(E=1e9, nu=0.2, rho=1000))
+    with pytest.warns(UserWarning, match="only the point itself"):
+        em.EigenErosion(engine=mpm, Gc=10.0, kappaOverH=0.3)
+    with pytest.warns(UserWarning, match="Appendix A"):
+        em.EigenErosion(engine=mpm, Gc=10.0, kappaOverH=2.5)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        em.EigenErosion(engine=mpm, Gc=10.0, kappaOverH=1.1)
