@@ -50,19 +50,46 @@ template <> void tensilePart<2>(const Mat<2>& e, Vec<2>& l, Mat<2>& ep)
 
 template <> void tensilePart<3>(const Mat<3>& e, Vec<3>& l, Mat<3>& ep)
 {
+    // Eigenvalues in closed form (no eigenvectors). They are accurate to round-off of the
+    // deviator except within a nearly repeated pair, whose two values can be off by ~1e-8 of
+    // the deviator while their sum stays exact.
     Eigen::SelfAdjointEigenSolver<Mat<3>> es;
-    es.computeDirect(e);
+    es.computeDirect(e, Eigen::EigenvaluesOnly);
     l = es.eigenvalues();  // ascending
-    if (l(0) >= 0) {
-        ep = e;
-    } else if (l(2) <= 0) {
-        ep.setZero();
-    } else {
-        const Mat<3>& n = es.eigenvectors();
-        ep.setZero();
-        for (int i = 0; i < 3; ++i)
-            if (l(i) > 0) ep += l(i) * n.col(i) * n.col(i).transpose();
+    const double spread = l(2) - l(0);
+    if (!(spread > 0)) {  // e = l I exactly
+        if (l(0) >= 0) ep = e; else ep.setZero();
+        return;
     }
+    // All principal strains clearly of one sign (by much more than that error): Eq 5 directly.
+    const double margin = 1e-6 * spread;
+    if (l(0) >= margin) {
+        ep = e;
+        return;
+    }
+    if (l(2) <= -margin) {
+        ep.setZero();
+        return;
+    }
+    // Mixed or nearly zero principal strains. The eigenvalue l_k farther from the other two is
+    // accurate, and so is its spectral projector P_k = (e - l_a I)(e - l_b I)/((l_k - l_a)(l_k - l_b))
+    // (the pair's errors cancel to second order). The pair lives in the plane Q = I - P_k as
+    // B = e - l_k P_k; its values m -+ r come from the trace and the norm of B's deviator in the
+    // plane, with no cancellation, so a repeated pair (even at zero) is split exactly.
+    const int k = l(1) - l(0) >= l(2) - l(1) ? 0 : 2, a = k == 0 ? 1 : 0, b = k == 0 ? 2 : 1;
+    const Mat<3> I = Mat<3>::Identity();
+    const Mat<3> Pk = (e - l(a) * I) * (e - l(b) * I) / ((l(k) - l(a)) * (l(k) - l(b)));
+    const Mat<3> Q = I - Pk;
+    const Mat<3> B = e - l(k) * Pk;
+    const double m = 0.5 * (e.trace() - l(k));
+    const double r = std::sqrt(0.5 * (B - m * Q).squaredNorm());
+    const double lminus = m - r, lplus = m + r;
+    ep = pos(l(k)) * Pk;
+    if (lminus >= 0)
+        ep += B;
+    else if (lplus > 0)
+        ep += (lplus / (2.0 * r)) * (B - lminus * Q);  // lplus times the projector on its vector
+    l << l(k), lminus, lplus;  // only the set of values is used below
 }
 }  // namespace
 
