@@ -218,25 +218,46 @@ template <int D, class K> double Solver<D, K>::criticalTimeStep() const
     return settings_.h / (c + vmax);
 }
 
-template <int D, class K> void Solver<D, K>::binPoints()
+template <int D, class K> void Solver<D, K>::binPoints(int nThreads)
 {
     // Counting sort of the point ids by strip along the last axis. Stable, so the order of the
     // contributions to every node is fixed whatever the thread count: results are bitwise
-    // independent of it.
+    // independent of it. A point off the grid (moved there by the user, or left there by a
+    // step that stopped with an error) would write outside the nodal arrays: refused here.
     const int last = D - 1;
     const int numStrips = (grid_.n[last] - S) / stripWidth + 1;
     const int np = static_cast<int>(points_.size());
+    const Grid<D>& g = grid_;
     stripOf_.resize(np);
+    int firstOffGrid = INT_MAX;
+#pragma omp parallel for schedule(static) num_threads(nThreads) reduction(min : firstOffGrid)
     for (int p = 0; p < np; ++p) {
-        const int b = K::base((points_.x[p][last] - grid_.origin[last]) * grid_.invh);
-        stripOf_[p] = b / stripWidth;
+        int b = 0;
+        for (int d = 0; d < D; ++d) {
+            b = K::base((points_.x[p][d] - g.origin[d]) * g.invh);
+            if (!(b >= 0 && b <= g.n[d] - S)) {
+                firstOffGrid = std::min(firstOffGrid, p);
+                b = 0;
+                break;
+            }
+        }
+        stripOf_[p] = b / stripWidth;  // b is now the base node along the last axis
+    }
+    if (firstOffGrid != INT_MAX) {
+        Vec<D> hiCorner;
+        for (int d = 0; d < D; ++d) hiCorner[d] = g.origin[d] + (g.n[d] - 1) * g.h;
+        std::ostringstream s;
+        s << "EigenMPM: point id " << firstOffGrid << " at " << str<D>(points_.x[firstOffGrid])
+          << " is off the grid (nodes span " << str<D>(g.origin) << " to " << str<D>(hiCorner)
+          << ") at the start of step " << steps_ + 1 << "; move it back or give a larger domain";
+        throw SimulationError(s.str());
     }
     stripStart_.assign(numStrips + 1, 0);
     for (int p = 0; p < np; ++p) ++stripStart_[stripOf_[p] + 1];
     for (int s = 0; s < numStrips; ++s) stripStart_[s + 1] += stripStart_[s];
     order_.resize(np);
-    std::vector<int> fill(stripStart_.begin(), stripStart_.end() - 1);
-    for (int p = 0; p < np; ++p) order_[fill[stripOf_[p]]++] = p;
+    stripFill_.assign(stripStart_.begin(), stripStart_.end() - 1);
+    for (int p = 0; p < np; ++p) order_[stripFill_[stripOf_[p]]++] = p;
 }
 
 template <int D, class K>
@@ -305,7 +326,7 @@ template <int D, class K> void Solver<D, K>::step(double dt, int nThreads)
     auto& g = grid_;
     const double lp = lp_;
 
-    binPoints();
+    binPoints(nThreads);
     stencil_.resize(np);
 #pragma omp parallel for schedule(static) num_threads(nThreads)
     for (int I = 0; I < nn; ++I) {

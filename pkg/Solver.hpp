@@ -89,7 +89,7 @@ private:
     };
 
     template <class F> void scatter(int nThreads, F&& perPoint);
-    void binPoints();
+    void binPoints(int nThreads);
     void applyVelocityConditions(double t, bool afterForces, double dt);
 
     SolverSettings settings_;
@@ -104,7 +104,7 @@ private:
     std::vector<VelocityCondition> velocityConditions_;
     std::vector<TractionCondition> tractions_;
     std::vector<int> order_, stripStart_;  ///< points sorted (stably) by strip
-    std::vector<int> stripOf_;
+    std::vector<int> stripOf_, stripFill_;
     std::vector<Stencil> stencil_;  ///< stencil_[k] is that of point order_[k] in this step
     double time_ = 0, maxSpeed_ = 0;
     std::int64_t steps_ = 0;
