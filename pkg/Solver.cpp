@@ -75,14 +75,16 @@ template <int D, class K>
 int Solver<D, K>::addPoint(const Eigen::Vector3d& x, const Eigen::Vector3d& v, double volume, int material)
 {
     const int id = static_cast<int>(points_.size());
-    require(material >= 0 && material < static_cast<int>(materials_.size()), "material (id)", material,
-            "0 <= material < " + std::to_string(materials_.size()) + " (ids returned by addMaterial)");
-    require(std::isfinite(volume) && volume > 0, "volume of point " + std::to_string(id) + " (m^dim)",
-            volume, "volume > 0");
-    require(x.head<D>().allFinite(), "position of point " + std::to_string(id), "non-finite",
-            "finite coordinates");
-    require(v.head<D>().allFinite(), "velocity of point " + std::to_string(id), "non-finite",
-            "finite components");
+    // The messages are built only on failure: this runs once per point of a scene.
+    if (!(material >= 0 && material < static_cast<int>(materials_.size())))
+        require(false, "material (id)", material,
+                "0 <= material < " + std::to_string(materials_.size()) + " (ids returned by addMaterial)");
+    if (!(std::isfinite(volume) && volume > 0))
+        require(false, "volume of point " + std::to_string(id) + " (m^dim)", volume, "volume > 0");
+    if (!x.head<D>().allFinite())
+        require(false, "position of point " + std::to_string(id), "non-finite", "finite coordinates");
+    if (!v.head<D>().allFinite())
+        require(false, "velocity of point " + std::to_string(id), "non-finite", "finite components");
     if (initialized_) {
         const Vec<D> xd = x.head<D>();
         for (int d = 0; d < D; ++d) {
