@@ -43,8 +43,8 @@ class EigenErosion(PyRunner):
         Param("kappaOverH", None, "", "neighbourhood radius as a multiple of the cell size h"),
         Param("origin", None, "m", "crack origin for tip tracking (e.g. the pre-crack tip); "
                                    "default: the first eroded point"),
-        Param("tipWindow", None, "s", "erosions within this time before a record form the active "
-                                      "tips; default 20 O.dt"),
+        Param("tipWindow", None, "s", "erosions within this time before a record can be tips, and "
+                                      "the window of the tip speed; default 50 O.dt"),
         Param("iterPeriod", 100, "iterations", "period of the diagnostics record"),
     )
 
@@ -105,40 +105,36 @@ class EigenErosion(PyRunner):
         return self.core.erodedCount if self.core else 0
 
     def tips(self, mpm=None):
-        """Crack tips now. The points eroded within the last tipWindow of time are grouped into
-        clusters (points closer than 2 kappa are linked); the tip of a cluster is its point
-        farthest from the crack origin. A straight crack has one active cluster; after branching
-        each branch has its own. Returns a list of positions (numpy arrays)."""
+        """Crack tips now, as a list of positions (numpy arrays). A tip is a recently eroded point
+        (within tipWindow of simulated time) that is a local maximum of the distance from the
+        crack origin: no eroded point within R = 6 kappa of it lies farther from the origin.
+        Tips closer than R to a farther tip are merged into it. A straight crack has one tip;
+        after branching each branch has its own; erosion behind the front (the band widening)
+        is never a tip."""
         mpm = mpm or self._mpm
         events = self.core.events() if self.core else []
         if not events:
             return []
-        window = self.tipWindow if self.tipWindow else 20 * O.dt
+        window = self.tipWindow if self.tipWindow else 50 * O.dt
         now = mpm.solver.time
-        recent = [p for p, _, t in events if t >= now - window]
-        if not recent:
-            return []
         x = mpm.solver.positions()
         origin = self._originPoint(x, events)
-        pts = x[recent]
-        link = 2.0 * self.core.kappa
-        label = -np.ones(len(pts), dtype=int)
-        clusters = 0
-        for i in range(len(pts)):
-            if label[i] >= 0:
-                continue
-            label[i] = clusters
-            stack = [i]
-            while stack:
-                j = stack.pop()
-                near = np.nonzero((label < 0) & (np.sum((pts - pts[j]) ** 2, axis=1) <= link * link))[0]
-                label[near] = clusters
-                stack.extend(near.tolist())
-            clusters += 1
+        ids = np.array([p for p, _, _ in events])
+        recent = np.array([p for p, _, t in events if t >= now - window])
+        if len(recent) == 0:
+            return []
+        R2 = (6.0 * self.core.kappa) ** 2
+        r = np.sum((x[ids] - origin) ** 2, axis=1)
+        rr = np.sum((x[recent] - origin) ** 2, axis=1)
+        order = np.argsort(-rr)
         tips = []
-        for c in range(clusters):
-            members = pts[label == c]
-            tips.append(members[np.argmax(np.sum((members - origin) ** 2, axis=1))])
+        for k in order:
+            p = x[recent[k]]
+            near = np.sum((x[ids] - p) ** 2, axis=1) <= R2
+            if np.any(r[near] > rr[k]):
+                continue
+            if all(np.sum((p - t) ** 2) > R2 for t in tips):
+                tips.append(p.copy())
         return tips
 
     def _originPoint(self, x, events):
@@ -161,14 +157,51 @@ class EigenErosion(PyRunner):
         self.history.append((mpm.solver.time, self.dissipatedEnergy(), self.erodedCount(),
                              self.frontDistance(mpm), [t.tolist() for t in self.tips(mpm)]))
 
-    def tipSpeed(self):
-        """Crack tip speed over the recorded history: (times, speeds), the speed being the rate of
-        change of the front distance between successive records (m/s)."""
+    def tipSpeed(self, window=None):
+        """Crack tip speed over the recorded history, as (times, speeds in m/s): the rate of
+        change of the front distance (largest distance from the origin to an eroded point) over
+        a sliding window of simulated time (default: tipWindow or 5 records), which smooths the
+        steps of one point spacing that erosion advances by."""
         if len(self.history) < 2:
             return np.array([]), np.array([])
         t = np.array([h[0] for h in self.history])
         d = np.array([h[3] for h in self.history])
-        return 0.5 * (t[1:] + t[:-1]), np.diff(d) / np.diff(t)
+        w = window or self.tipWindow or 5 * (t[1] - t[0])
+        times, speeds = [], []
+        j = 0
+        for i in range(1, len(t)):
+            while j + 1 < i and t[i] - t[j + 1] >= w:
+                j += 1
+            if t[i] - t[j] >= w * (1 - 1e-9):
+                times.append(0.5 * (t[i] + t[j]))
+                speeds.append((d[i] - d[j]) / (t[i] - t[j]))
+        return np.array(times), np.array(speeds)
+
+    def initiationTime(self):
+        """Time of the first erosion, s (None before)."""
+        ev = self.core.events() if self.core else []
+        return ev[0][2] if ev else None
+
+    def branchingTime(self, sustain=5):
+        """First recorded time from which the crack has two or more tips for `sustain`
+        consecutive records, s (None if it never branches)."""
+        n = [len(h[4]) for h in self.history]
+        for i in range(len(n) - sustain + 1):
+            if all(k >= 2 for k in n[i:i + sustain]):
+                return self.history[i][0]
+        return None
+
+    def summary(self):
+        """Scalars for summary.json: dissipated energy (J), eroded count, initiation time (us),
+        maximum tip speed (m/s) and the current tips (m)."""
+        _, v = self.tipSpeed()
+        t0 = self.initiationTime()
+        return {"dissipated_energy_J": self.dissipatedEnergy(), "eroded_count": self.erodedCount(),
+                "initiation_time_us": None if t0 is None else 1e6 * t0,
+                "branching_time_us": None if self.branchingTime() is None else 1e6 * self.branchingTime(),
+                "max_tip_speed_m_s": float(np.max(v)) if len(v) else 0.0,
+                "crack_front_distance_m": self.history[-1][3] if self.history else 0.0,
+                "crack_tips_m": self.history[-1][4] if self.history else []}
 
     def plotData(self):
         return {f"{self.label}_Ef": self.dissipatedEnergy(), f"{self.label}_eroded": self.erodedCount(),

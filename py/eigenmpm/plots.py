@@ -1,0 +1,58 @@
+"""Figures for reports: damage map, energies, crack tip speed (matplotlib, Agg backend)."""
+import os
+
+import numpy as np
+
+
+def _pyplot():
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt
+
+
+def _save(fig, path):
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    fig.tight_layout()
+    fig.savefig(path, dpi=130)
+    return path
+
+
+def damageMap(mpm, path, title=None, scale=1e3, unit="mm"):
+    """The points of a 2D MpmEngine at their current positions, intact blue and eroded red (like
+    the paper's Figures 8, 16, 20, 24). In 3D the points are projected on the x-y plane."""
+    plt = _pyplot()
+    x = mpm.solver.positions() * scale
+    d = mpm.solver.damage()
+    lo, hi = x.min(axis=0), x.max(axis=0)
+    span = np.maximum(hi - lo, 1e-30)
+    width = 7.0
+    fig, ax = plt.subplots(figsize=(width, max(2.0, min(12.0, width * span[1] / span[0]))))
+    size = max(0.05, 2.0e4 / max(len(x), 1))
+    intact = d > 0
+    ax.scatter(x[intact, 0], x[intact, 1], s=size, c="#1f4e9c", marker="s", linewidths=0, label="intact")
+    ax.scatter(x[~intact, 0], x[~intact, 1], s=3 * size, c="#d62728", marker="s", linewidths=0, label="eroded")
+    ax.set_aspect("equal")
+    ax.set_xlabel(f"x ({unit})")
+    ax.set_ylabel(f"y ({unit})")
+    ax.set_title(title or f"damage at t = {mpm.solver.time * 1e6:.1f} us ({int((~intact).sum())} points eroded)")
+    return _save(fig, path)
+
+
+def series(path, t, curves, xlabel="time (us)", ylabel="", title="", tscale=1e6, hlines=()):
+    """Line plot of several curves {label: values} against t (scaled by tscale); hlines are
+    (value, label) reference lines."""
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for label, y in curves.items():
+        ax.plot(np.asarray(t) * tscale, y, label=label)
+    for value, label in hlines:
+        ax.axhline(value, ls="--", lw=0.8, color="k")
+        ax.annotate(label, (ax.get_xlim()[0], value), va="bottom", fontsize=8)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    if title:
+        ax.set_title(title)
+    if curves:
+        ax.legend()
+    return _save(fig, path)
