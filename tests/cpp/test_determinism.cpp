@@ -1,0 +1,105 @@
+// Results must not depend on the number of OpenMP threads: the same scene stepped with 1 and
+// with 2 threads (and 3 for uGIMP) gives bitwise identical positions, velocities, strains and stresses.
+#include "test_helpers.hpp"
+
+namespace {
+
+using emp::GimpKernel;
+using emp::LinearKernel;
+using emp::Solver;
+using emptest::Mat;
+using emptest::to3;
+using emptest::Vec;
+
+/// A block, tall along the last axis (so that the colouring uses many strips), with random
+/// velocities, gravity, a fixed base and a prescribed velocity on top: stresses of both signs.
+template <int D, class K> Solver<D, K> makeScene()
+{
+    emp::SolverSettings st;
+    st.h = 0.05;
+    st.ppc = 2;
+    st.gravity = Eigen::Vector3d(0.3, -9.81, 0.0);
+    if (D == 3) st.gravity = Eigen::Vector3d(0.3, 0.2, -9.81);
+    Solver<D, K> s(st);
+    const int mat = s.addMaterial(1e6, 0.3, 1000, D == 2);
+    const int soft = s.addMaterial(3e5, 0.1, 800, D == 2);
+    std::array<int, D> lo, hi;
+    lo.fill(2);
+    hi.fill(D == 2 ? 14 : 6);
+    hi[D - 1] = D == 2 ? 40 : 26;
+    std::mt19937 rng(99);
+    std::uniform_real_distribution<double> u(-0.5, 0.5);
+    const std::vector<int> ids = emptest::addBlock<D>(s, lo, hi, mat, [&](const Vec<D>&) {
+        Vec<D> v;
+        for (int d = 0; d < D; ++d) v[d] = u(rng);
+        return v;
+    });
+    // A second material in part of the block.
+    for (std::size_t k = 0; k < ids.size(); k += 3) s.points().material[ids[k]] = soft;
+    s.initialize();
+    const auto& g = s.grid();
+    std::vector<int> base, top;
+    for (int I = 0; I < g.numNodes(); ++I) {
+        const double z = g.nodePosition(I)[D - 1];
+        if (z <= lo[D - 1] * st.h + 1e-12) base.push_back(I);
+        if (z >= hi[D - 1] * st.h - 1e-12) top.push_back(I);
+    }
+    s.addVelocityCondition(base, {}, (1u << D) - 1, Eigen::Vector3d::Zero(), 0.0);
+    Eigen::Vector3d vtop = Eigen::Vector3d::Zero();
+    vtop[D - 1] = 0.2;
+    s.addVelocityCondition(top, {}, 1u << (D - 1), vtop, 0.01);
+    return s;
+}
+
+template <class T> int countDifferences(const std::vector<T>& a, const std::vector<T>& b, const char* what)
+{
+    EXPECT_EQ(a.size(), b.size());
+    int diff = 0;
+    for (std::size_t i = 0; i < a.size() && i < b.size(); ++i) {
+        const double* pa = a[i].data();
+        const double* pb = b[i].data();
+        for (int k = 0; k < a[i].size(); ++k)
+            if (!(pa[k] == pb[k])) {
+                if (diff == 0) {
+                    EXPECT_EQ(pa[k], pb[k]) << what << " of point " << i << ", component " << k;
+                }
+                ++diff;
+            }
+    }
+    return diff;
+}
+
+template <int D, class K> void checkThreadIndependence(bool alsoThreeThreads)
+{
+    Solver<D, K> a = makeScene<D, K>(), b = makeScene<D, K>(), c = makeScene<D, K>();
+    ASSERT_GE(a.grid().n[D - 1], 30);  // many colouring strips
+    const double dt = 0.5 * a.criticalTimeStep();
+    for (int n = 0; n < 50; ++n) {
+        a.step(dt, 1);
+        b.step(dt, 2);
+        if (alsoThreeThreads) c.step(dt, 3);
+    }
+    const auto &A = a.points(), &B = b.points(), &C = c.points();
+    EXPECT_EQ(countDifferences(A.x, B.x, "position"), 0);
+    EXPECT_EQ(countDifferences(A.v, B.v, "velocity"), 0);
+    EXPECT_EQ(countDifferences(A.strain, B.strain, "strain"), 0);
+    EXPECT_EQ(countDifferences(A.stress, B.stress, "stress"), 0);
+    if (alsoThreeThreads) {
+        EXPECT_EQ(countDifferences(A.x, C.x, "position (3 threads)"), 0);
+        EXPECT_EQ(countDifferences(A.stress, C.stress, "stress (3 threads)"), 0);
+    }
+    EXPECT_EQ(a.reaction(0), b.reaction(0));
+    EXPECT_EQ(a.kineticEnergy(), b.kineticEnergy());
+    // The scene is not trivial: there are stresses and the points moved.
+    double maxStress = 0;
+    for (const auto& s : A.stress) maxStress = std::max(maxStress, s.norm());
+    EXPECT_GT(maxStress, 1.0);
+    EXPECT_GT(a.reaction(0).norm(), 0.0);
+}
+
+TEST(Determinism, ThreadCountDoesNotChangeResults2DGimp) { checkThreadIndependence<2, GimpKernel>(true); }
+TEST(Determinism, ThreadCountDoesNotChangeResults2DLinear) { checkThreadIndependence<2, LinearKernel>(false); }
+TEST(Determinism, ThreadCountDoesNotChangeResults3DGimp) { checkThreadIndependence<3, GimpKernel>(true); }
+TEST(Determinism, ThreadCountDoesNotChangeResults3DLinear) { checkThreadIndependence<3, LinearKernel>(false); }
+
+}  // namespace

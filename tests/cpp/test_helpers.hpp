@@ -1,0 +1,129 @@
+// Shared helpers of the C++ unit tests (header only; CMake globs only tests/cpp/*.cpp).
+#pragma once
+#include <gtest/gtest.h>
+
+#include <Eigen/Dense>
+#include <array>
+#include <cmath>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "Errors.hpp"
+#include "Solver.hpp"
+
+namespace emptest {
+
+using emp::Mat;
+using emp::Vec;
+
+/// Pads a D-vector to the 3-vector the Solver interface takes.
+template <int D> Eigen::Vector3d to3(const Vec<D>& v)
+{
+    Eigen::Vector3d r = Eigen::Vector3d::Zero();
+    r.head<D>() = v;
+    return r;
+}
+
+/// Calls f(std::array<int, D> index) for every index in the box [lo, hi).
+template <int D, class F> void forBox(const std::array<int, D>& lo, const std::array<int, D>& hi, F&& f)
+{
+    std::array<int, D> i = lo;
+    for (int d = 0; d < D; ++d)
+        if (hi[d] <= lo[d]) return;
+    while (true) {
+        f(i);
+        int d = 0;
+        while (d < D) {
+            if (++i[d] < hi[d]) break;
+            i[d] = lo[d];
+            ++d;
+        }
+        if (d == D) return;
+    }
+}
+
+/// Regular block of points at the centres of the ppc^D sub-cells of the cells [cellLo, cellHi)
+/// (cell c spans [c h, (c+1) h)). Each point gets velocity vel(x). Returns the new point ids.
+template <int D, class K, class VelFn>
+std::vector<int> addBlock(emp::Solver<D, K>& s, const std::array<int, D>& cellLo,
+                          const std::array<int, D>& cellHi, int mat, VelFn&& vel)
+{
+    const double h = s.settings().h;
+    const int ppc = s.settings().ppc;
+    const double dx = h / ppc;
+    const double vol = std::pow(dx, D);
+    std::array<int, D> lo, hi;
+    for (int d = 0; d < D; ++d) {
+        lo[d] = cellLo[d] * ppc;
+        hi[d] = cellHi[d] * ppc;
+    }
+    std::vector<int> ids;
+    forBox<D>(lo, hi, [&](const std::array<int, D>& i) {
+        Vec<D> x;
+        for (int d = 0; d < D; ++d) x[d] = (i[d] + 0.5) * dx;
+        const Vec<D> v = vel(x);
+        ids.push_back(s.addPoint(to3<D>(x), to3<D>(v), vol, mat));
+    });
+    return ids;
+}
+
+template <int D, class K>
+std::vector<int> addBlock(emp::Solver<D, K>& s, const std::array<int, D>& cellLo,
+                          const std::array<int, D>& cellHi, int mat)
+{
+    return addBlock<D, K>(s, cellLo, cellHi, mat, [](const Vec<D>&) { return Vec<D>::Zero(); });
+}
+
+template <int D> Vec<D> totalMomentum(const emp::MaterialPoints<D>& P)
+{
+    Vec<D> m = Vec<D>::Zero();
+    for (std::size_t p = 0; p < P.size(); ++p) m += P.mass[p] * P.v[p];
+    return m;
+}
+
+template <int D> Vec<D> massMoment(const emp::MaterialPoints<D>& P)
+{
+    Vec<D> m = Vec<D>::Zero();
+    for (std::size_t p = 0; p < P.size(); ++p) m += P.mass[p] * P.x[p];
+    return m;
+}
+
+inline double sum(const std::vector<double>& a)
+{
+    double s = 0;
+    for (double x : a) s += x;
+    return s;
+}
+
+/// Random rotation matrix (uniform enough for tests) from a generator.
+template <int D> Mat<D> randomRotation(std::mt19937& rng)
+{
+    std::normal_distribution<double> n(0.0, 1.0);
+    Mat<D> a;
+    for (int i = 0; i < D; ++i)
+        for (int j = 0; j < D; ++j) a(i, j) = n(rng);
+    Eigen::HouseholderQR<Mat<D>> qr(a);
+    Mat<D> q = qr.householderQ();
+    if (q.determinant() < 0) q.col(0) *= -1.0;
+    return q;
+}
+
+template <int D> Mat<D> randomSymmetric(std::mt19937& rng, double scale)
+{
+    std::uniform_real_distribution<double> u(-scale, scale);
+    Mat<D> a;
+    for (int i = 0; i < D; ++i)
+        for (int j = 0; j < D; ++j) a(i, j) = u(rng);
+    return 0.5 * (a + a.transpose());
+}
+
+/// Isotropic Hooke's law with the Lame constants (lambda, mu).
+template <int D> Mat<D> hooke(const Mat<D>& eps, double lambda, double mu)
+{
+    return lambda * eps.trace() * Mat<D>::Identity() + 2.0 * mu * eps;
+}
+
+inline bool contains(const std::string& s, const std::string& sub) { return s.find(sub) != std::string::npos; }
+
+}  // namespace emptest

@@ -1,0 +1,334 @@
+// Properties of the 1D kernels (ShapeFunction.hpp) and of their 2D/3D tensor products
+// (paper Eqs 15-16): partition of unity, zero gradient sum, linear reproduction, continuity
+// across cell faces, the closed form of Eq 16 for lp = 1/4, the convolution form for any lp and
+// consistency of the derivatives with finite differences.
+#include <map>
+
+#include "test_helpers.hpp"
+
+namespace {
+
+using emp::GimpKernel;
+using emp::LinearKernel;
+using emptest::forBox;
+using emptest::Mat;
+using emptest::Vec;
+
+/// uGIMP half-widths (cell units) for ppc = 1, 2, 3, 4: lp = 1/(2 ppc).
+const std::vector<double> kHalfWidths = {0.5, 0.25, 1.0 / 6.0, 0.125};
+
+/// Weights and gradients (cell units) of every node of the support of a point at xi (cell units),
+/// keyed by the node's global integer index, from the tensor product N = prod_d s(xi_d - j_d).
+template <int D> using WeightMap = std::map<std::array<int, D>, std::pair<double, Vec<D>>>;
+
+template <int D, class K> WeightMap<D> weights(const Vec<D>& xi, double lp)
+{
+    constexpr int S = K::S;
+    int base[D];
+    double w[D][S], dw[D][S];
+    for (int d = 0; d < D; ++d) base[d] = K::eval(xi[d], lp, w[d], dw[d]);
+    WeightMap<D> out;
+    std::array<int, D> lo{}, hi{};
+    hi.fill(S);
+    forBox<D>(lo, hi, [&](const std::array<int, D>& k) {
+        std::array<int, D> node;
+        double N = 1;
+        Vec<D> grad;
+        for (int d = 0; d < D; ++d) {
+            node[d] = base[d] + k[d];
+            N *= w[d][k[d]];
+            grad[d] = dw[d][k[d]];
+            for (int e = 0; e < D; ++e)
+                if (e != d) grad[d] *= w[e][k[e]];
+        }
+        out[node] = {N, grad};
+    });
+    return out;
+}
+
+/// Largest difference of weights and of gradients between two maps (absent nodes count as 0).
+template <int D> std::pair<double, double> maxDifference(const WeightMap<D>& a, const WeightMap<D>& b)
+{
+    double dN = 0, dG = 0;
+    auto visit = [&](const WeightMap<D>& p, const WeightMap<D>& q) {
+        for (const auto& [node, wg] : p) {
+            const auto it = q.find(node);
+            const double N2 = it == q.end() ? 0.0 : it->second.first;
+            const Vec<D> g2 = it == q.end() ? Vec<D>::Zero() : it->second.second;
+            dN = std::max(dN, std::fabs(wg.first - N2));
+            dG = std::max(dG, (wg.second - g2).cwiseAbs().maxCoeff());
+        }
+    };
+    visit(a, b);
+    visit(b, a);
+    return {dN, dG};
+}
+
+/// Offsets inside a cell where something happens: cell faces (0), the switch of the GIMP base
+/// node (0.5) and the breakpoints of the piecewise GIMP function (+-lp, +-(1-lp)).
+std::vector<double> specialOffsets(double lp) { return {0.0, 0.5, lp, 1.0 - lp, -lp, lp - 1.0, 1.0}; }
+
+/// Random points in [2, 12)^D plus points whose coordinates sit exactly on nodes, cell faces,
+/// half cells and the kernel breakpoints.
+template <int D> std::vector<Vec<D>> samplePoints(double lp, std::mt19937& rng, int nRandom)
+{
+    std::uniform_real_distribution<double> u(2.0, 12.0);
+    std::uniform_int_distribution<int> cell(3, 10);
+    const std::vector<double> off = specialOffsets(lp);
+    std::uniform_int_distribution<int> pick(0, static_cast<int>(off.size()) - 1);
+    std::uniform_int_distribution<int> coin(0, 1);
+    std::vector<Vec<D>> pts;
+    for (int i = 0; i < nRandom; ++i) {
+        Vec<D> x;
+        for (int d = 0; d < D; ++d) x[d] = u(rng);
+        pts.push_back(x);
+    }
+    for (int i = 0; i < nRandom; ++i) {
+        Vec<D> x;
+        for (int d = 0; d < D; ++d) x[d] = coin(rng) ? cell(rng) + off[pick(rng)] : u(rng);
+        pts.push_back(x);
+    }
+    Vec<D> node = Vec<D>::Constant(5.0);
+    pts.push_back(node);
+    return pts;
+}
+
+// Independent closed forms used as references.
+
+/// Paper Eq 16 (uGIMP, half-width 1/4), written from the paper.
+double paperEq16(double xi)
+{
+    xi = std::fabs(xi);
+    if (xi <= 0.25) return (7.0 - 16.0 * xi * xi) / 8.0;
+    if (xi <= 0.75) return 1.0 - xi;
+    if (xi <= 1.25) return (5.0 - 4.0 * xi) * (5.0 - 4.0 * xi) / 16.0;
+    return 0.0;
+}
+
+double hat(double r) { return std::max(0.0, 1.0 - std::fabs(r)); }
+
+/// Antiderivative of the hat function.
+double hatIntegral(double t)
+{
+    if (t <= -1) return 0.0;
+    if (t <= 0) return 0.5 * (t + 1) * (t + 1);
+    if (t <= 1) return 1.0 - 0.5 * (1 - t) * (1 - t);
+    return 1.0;
+}
+
+/// uGIMP as the convolution of the hat with a box of half-width lp (its definition).
+double gimpByConvolution(double r, double lp) { return (hatIntegral(r + lp) - hatIntegral(r - lp)) / (2 * lp); }
+double gimpDerivativeByConvolution(double r, double lp) { return (hat(r + lp) - hat(r - lp)) / (2 * lp); }
+
+template <class K> struct KernelTest : ::testing::Test {};
+using Kernels = ::testing::Types<LinearKernel, GimpKernel>;
+TYPED_TEST_SUITE(KernelTest, Kernels);
+
+template <int D, class K> void checkPartitionOfUnity(std::uint32_t seed)
+{
+    std::mt19937 rng(seed);
+    for (double lp : kHalfWidths) {
+        for (const Vec<D>& x : samplePoints<D>(lp, rng, 400)) {
+            const WeightMap<D> w = weights<D, K>(x, lp);
+            double sumN = 0;
+            Vec<D> sumG = Vec<D>::Zero(), sumNxv = Vec<D>::Zero();
+            Mat<D> sumGx = Mat<D>::Zero();
+            for (const auto& [node, wg] : w) {
+                EXPECT_GE(wg.first, 0.0);
+                Vec<D> xn;
+                for (int d = 0; d < D; ++d) xn[d] = node[d];
+                sumN += wg.first;
+                sumG += wg.second;
+                sumNxv += wg.first * xn;
+                sumGx += xn * wg.second.transpose();
+            }
+            ASSERT_NEAR(sumN, 1.0, 1e-14) << "lp = " << lp << ", x = " << x.transpose();
+            ASSERT_LT(sumG.cwiseAbs().maxCoeff(), 1e-13) << "lp = " << lp << ", x = " << x.transpose();
+            // Linear reproduction: sum N_I x_I = x and sum x_I grad N_I^T = identity.
+            ASSERT_LT((sumNxv - x).cwiseAbs().maxCoeff(), 1e-12) << "lp = " << lp << ", x = " << x.transpose();
+            ASSERT_LT((sumGx - Mat<D>::Identity()).cwiseAbs().maxCoeff(), 1e-12)
+                << "lp = " << lp << ", x = " << x.transpose();
+        }
+    }
+}
+
+TYPED_TEST(KernelTest, PartitionOfUnityAndLinearReproduction1D) { checkPartitionOfUnity<1, TypeParam>(11); }
+TYPED_TEST(KernelTest, PartitionOfUnityAndLinearReproduction2D) { checkPartitionOfUnity<2, TypeParam>(12); }
+TYPED_TEST(KernelTest, PartitionOfUnityAndLinearReproduction3D) { checkPartitionOfUnity<3, TypeParam>(13); }
+
+/// Weights (both kernels) are C0 across cell faces, GIMP breakpoints and base switches; GIMP
+/// gradients are C0 too. Returns the largest gradient jump seen at cell faces.
+template <int D, class K> double checkContinuity(std::uint32_t seed)
+{
+    constexpr bool gimp = std::is_same_v<K, GimpKernel>;
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> u(3.0, 10.0);
+    std::uniform_int_distribution<int> cell(3, 10);
+    const double eps = 1e-10;
+    double maxFaceGradJump = 0;
+    for (double lp : kHalfWidths) {
+        const std::vector<double> off = specialOffsets(lp);
+        for (int trial = 0; trial < 60; ++trial)
+            for (double o : off)
+                for (int d = 0; d < D; ++d) {
+                    Vec<D> x;
+                    for (int e = 0; e < D; ++e) x[e] = u(rng);
+                    x[d] = cell(rng) + o;
+                    Vec<D> xm = x, xp = x;
+                    xm[d] -= eps;
+                    xp[d] += eps;
+                    const auto [dN, dG] = maxDifference<D>(weights<D, K>(xm, lp), weights<D, K>(xp, lp));
+                    // |dN/dxi| <= 1 and, for GIMP, |d2N/dxi2| <= 1/lp (cell units).
+                    EXPECT_LE(dN, 2 * eps * 1.0001 + 1e-14)
+                        << "weights jump at x = " << x.transpose() << " (direction " << d << ", lp = " << lp << ")";
+                    if (gimp) {
+                        EXPECT_LE(dG, 2 * eps / lp * 1.0001 + 1e-12)
+                            << "gradients jump at x = " << x.transpose() << " (direction " << d << ", lp = " << lp << ")";
+                    }
+                    if (o == 0.0 || o == 1.0) maxFaceGradJump = std::max(maxFaceGradJump, dG);
+                }
+    }
+    return maxFaceGradJump;
+}
+
+TEST(ShapeFunction, GimpWeightsAndGradientsContinuousAcrossCellFaces1D) { checkContinuity<1, GimpKernel>(21); }
+TEST(ShapeFunction, GimpWeightsAndGradientsContinuousAcrossCellFaces2D) { checkContinuity<2, GimpKernel>(22); }
+TEST(ShapeFunction, GimpWeightsAndGradientsContinuousAcrossCellFaces3D) { checkContinuity<3, GimpKernel>(23); }
+
+TEST(ShapeFunction, LinearWeightsContinuousAcrossCellFaces)
+{
+    checkContinuity<1, LinearKernel>(31);
+    checkContinuity<2, LinearKernel>(32);
+    // The gradient of the linear kernel does jump at cell faces (by 1 in 1D): this shows the
+    // jump detector used for GIMP above does see a discontinuity when there is one.
+    EXPECT_GT((checkContinuity<3, LinearKernel>(33)), 0.1);
+}
+
+TEST(ShapeFunction, GimpMatchesPaperEq16ForQuarterHalfWidth)
+{
+    std::mt19937 rng(41);
+    std::uniform_real_distribution<double> u(-1.6, 1.6);
+    std::vector<double> rs = {0.0, 0.25, -0.25, 0.75, -0.75, 1.0, -1.0, 1.25, -1.25, 1.5, -1.5, 0.5, -0.5};
+    for (int i = 0; i < 2000; ++i) rs.push_back(u(rng));
+    const double t = 1e-7;
+    for (double r : rs) {
+        double ds = 0;
+        const double s = GimpKernel::s(r, 0.25, ds);
+        EXPECT_NEAR(s, paperEq16(r), 1e-14) << "r = " << r;
+        const double fd = (paperEq16(r + t) - paperEq16(r - t)) / (2 * t);
+        // The paper's s is piecewise quadratic and C1: central differences are exact up to
+        // round-off except within t of a breakpoint, where the error is below t |jump of s''|.
+        EXPECT_NEAR(ds, fd, 4 * t / 0.25 + 1e-8) << "r = " << r;
+    }
+    // The same through eval, i.e. with the stencil's node selection, at positions in cell units.
+    std::uniform_real_distribution<double> ux(2.0, 9.0);
+    for (int i = 0; i < 2000; ++i) {
+        const double xi = i < 8 ? 3.0 + 0.25 * i : ux(rng);
+        double w[3], dw[3];
+        const int b = GimpKernel::eval(xi, 0.25, w, dw);
+        for (int j = b - 3; j < b + 6; ++j) {
+            const double expected = paperEq16(xi - j);
+            const double got = (j >= b && j < b + 3) ? w[j - b] : 0.0;
+            EXPECT_NEAR(got, expected, 1e-14) << "xi = " << xi << ", node " << j;
+        }
+    }
+}
+
+TEST(ShapeFunction, GimpIsTheConvolutionOfHatAndBoxForEveryPpc)
+{
+    std::mt19937 rng(51);
+    std::uniform_real_distribution<double> u(-1.7, 1.7);
+    for (double lp : kHalfWidths)
+        for (int i = 0; i < 3000; ++i) {
+            double r = u(rng);
+            if (i < 7) r = specialOffsets(lp)[i];
+            double ds = 0;
+            const double s = GimpKernel::s(r, lp, ds);
+            EXPECT_NEAR(s, gimpByConvolution(r, lp), 1e-14) << "r = " << r << ", lp = " << lp;
+            EXPECT_NEAR(ds, gimpDerivativeByConvolution(r, lp), 1e-13) << "r = " << r << ", lp = " << lp;
+        }
+    // The same through eval (the stencil's weights of its three nodes), at positions in cell units.
+    std::uniform_real_distribution<double> ux(2.0, 9.0);
+    for (double lp : kHalfWidths)
+        for (int i = 0; i < 5000; ++i) {
+            const double xi = i < 7 ? 4.0 + specialOffsets(lp)[i] : ux(rng);
+            double w[3], dw[3];
+            const int b = GimpKernel::eval(xi, lp, w, dw);
+            for (int k = 0; k < 3; ++k) {
+                const double r = xi - (b + k);
+                EXPECT_NEAR(w[k], gimpByConvolution(r, lp), 1e-14) << "xi = " << xi << ", node " << b + k << ", lp = " << lp;
+                EXPECT_NEAR(dw[k], gimpDerivativeByConvolution(r, lp), 1e-13)
+                    << "xi = " << xi << ", node " << b + k << ", lp = " << lp;
+            }
+        }
+}
+
+TEST(ShapeFunction, LinearKernelIsTheHat)
+{
+    std::mt19937 rng(52);
+    std::uniform_real_distribution<double> u(2.0, 9.0);
+    for (int i = 0; i < 2000; ++i) {
+        const double xi = i < 5 ? 3.0 + 0.5 * i : u(rng);
+        double w[2], dw[2];
+        const int b = LinearKernel::eval(xi, 0.25, w, dw);
+        EXPECT_EQ(b, LinearKernel::base(xi));
+        for (int j = b - 2; j < b + 4; ++j) {
+            const double got = (j >= b && j < b + 2) ? w[j - b] : 0.0;
+            EXPECT_NEAR(got, hat(xi - j), 1e-14) << "xi = " << xi << ", node " << j;
+        }
+    }
+}
+
+TEST(ShapeFunction, GimpStencilCoversTheWholeSupport)
+{
+    std::mt19937 rng(53);
+    std::uniform_real_distribution<double> u(2.0, 9.0);
+    for (double lp : kHalfWidths)
+        for (int i = 0; i < 2000; ++i) {
+            double xi = u(rng);
+            if (i < 7) xi = 4.0 + specialOffsets(lp)[i];
+            double w[3], dw[3];
+            const int b = GimpKernel::eval(xi, lp, w, dw);
+            EXPECT_EQ(b, GimpKernel::base(xi));
+            for (int j = b - 3; j < b + 6; ++j) {
+                if (j >= b && j < b + 3) continue;
+                double ds = 0;
+                EXPECT_EQ(GimpKernel::s(xi - j, lp, ds), 0.0) << "xi = " << xi << ", node " << j << ", lp = " << lp;
+                EXPECT_EQ(ds, 0.0);
+            }
+        }
+}
+
+/// Gradients of the D-dimensional shape functions against central differences of the weights.
+template <int D, class K> void checkGradientByFiniteDifference(std::uint32_t seed)
+{
+    constexpr bool gimp = std::is_same_v<K, GimpKernel>;
+    std::mt19937 rng(seed);
+    const double t = 1e-6;
+    for (double lp : kHalfWidths)
+        for (const Vec<D>& x : samplePoints<D>(lp, rng, 150)) {
+            const WeightMap<D> w = weights<D, K>(x, lp);
+            for (int d = 0; d < D; ++d) {
+                // The linear kernel has a kink at each node: stay away from it.
+                if (!gimp && std::fabs(x[d] - std::round(x[d])) < 2 * t) continue;
+                Vec<D> xm = x, xp = x;
+                xm[d] -= t;
+                xp[d] += t;
+                const WeightMap<D> wm = weights<D, K>(xm, lp), wp = weights<D, K>(xp, lp);
+                for (const auto& [node, wg] : w) {
+                    const auto im = wm.find(node), ip = wp.find(node);
+                    const double Nm = im == wm.end() ? 0.0 : im->second.first;
+                    const double Np = ip == wp.end() ? 0.0 : ip->second.first;
+                    const double fd = (Np - Nm) / (2 * t);
+                    EXPECT_NEAR(wg.second[d], fd, (gimp ? 2 * t / lp : 0.0) + 1e-8)
+                        << "x = " << x.transpose() << ", direction " << d << ", lp = " << lp;
+                }
+            }
+        }
+}
+
+TYPED_TEST(KernelTest, GradientMatchesFiniteDifference1D) { checkGradientByFiniteDifference<1, TypeParam>(61); }
+TYPED_TEST(KernelTest, GradientMatchesFiniteDifference2D) { checkGradientByFiniteDifference<2, TypeParam>(62); }
+TYPED_TEST(KernelTest, GradientMatchesFiniteDifference3D) { checkGradientByFiniteDifference<3, TypeParam>(63); }
+
+}  // namespace
