@@ -18,8 +18,25 @@ template <int D> struct Grid {
     std::vector<Vec<D>> momentum;  ///< P_I (Eqs 25, 29)
     std::vector<Vec<D>> velocity;  ///< v_I (Eq 26), then P_I^{n+1/2}/m_I for Eq 31
     std::vector<Vec<D>> force;     ///< f_I (Eqs 13, 28), then the applied f_I for Eq 30
+    /// Node indices of the points near pre-existing cracks: the stencil of such a point reads
+    /// its S^D node indices here (a twin in place of a marked node across the crack).
+    std::vector<int> remap;
 
-    int numNodes() const { return static_cast<int>(mass.size()); }
+    /// Regular lattice nodes; phantom twins (pre-existing cracks) are numbered after them.
+    int numNodes() const { return regular_; }
+    /// Regular nodes plus phantom twins: the length of the nodal arrays.
+    int totalNodes() const { return static_cast<int>(mass.size()); }
+    /// Sizes the nodal arrays for `twins` phantom nodes after the regular ones.
+    void setTwins(int twins)
+    {
+        const int total = regular_ + twins;
+        if (totalNodes() == total) return;
+        mass.resize(total, 0.0);
+        invMass.resize(total, 0.0);
+        momentum.resize(total, Vec<D>::Zero());
+        velocity.resize(total, Vec<D>::Zero());
+        force.resize(total, Vec<D>::Zero());
+    }
 
     /// Nodes at origin + i*h for i in [0, n); resets every nodal array.
     void resize(const Vec<D>& org, double spacing, const std::array<int, D>& nodes)
@@ -33,6 +50,7 @@ template <int D> struct Grid {
             stride[d] = total;
             total *= n[d];
         }
+        regular_ = total;
         mass.assign(total, 0.0);
         invMass.assign(total, 0.0);
         momentum.assign(total, Vec<D>::Zero());
@@ -40,6 +58,7 @@ template <int D> struct Grid {
         force.assign(total, Vec<D>::Zero());
     }
 
+    /// Position of a regular node (a twin sits at the position of its node).
     Vec<D> nodePosition(int index) const
     {
         Vec<D> x;
@@ -62,6 +81,9 @@ template <int D> struct Grid {
         }
         return index;
     }
+
+private:
+    int regular_ = 0;
 };
 
 }  // namespace emp

@@ -28,29 +28,70 @@ template <int D, class K>
 void Solver<D, K>::Stencil::compute(const Vec<D>& x, const Grid<D>& g, double lp)
 {
     for (int d = 0; d < D; ++d) base[d] = K::eval((x[d] - g.origin[d]) * g.invh, lp, w[d], dw[d]);
+    remap = -1;
 }
 
 template <int D, class K>
 template <class F>
 void Solver<D, K>::Stencil::forEach(const Grid<D>& g, F&& f) const
 {
+    // Near a pre-existing crack the node indices come from the remap table (phantom twins);
+    // elsewhere they follow from the base node. The branch is per point, not per node.
     if constexpr (D == 2) {
-        for (int j = 0; j < S; ++j) {
-            const int row = base[0] + (base[1] + j) * g.stride[1];
-            for (int i = 0; i < S; ++i)
-                f(row + i, w[0][i] * w[1][j], Vec<2>(dw[0][i] * w[1][j] * g.invh, w[0][i] * dw[1][j] * g.invh));
+        if (remap < 0) {
+            for (int j = 0; j < S; ++j) {
+                const int row = base[0] + (base[1] + j) * g.stride[1];
+                for (int i = 0; i < S; ++i)
+                    f(row + i, w[0][i] * w[1][j], Vec<2>(dw[0][i] * w[1][j] * g.invh, w[0][i] * dw[1][j] * g.invh));
+            }
+        } else {
+            const int* node = &g.remap[remap];
+            for (int j = 0; j < S; ++j)
+                for (int i = 0; i < S; ++i)
+                    f(node[i + S * j], w[0][i] * w[1][j],
+                      Vec<2>(dw[0][i] * w[1][j] * g.invh, w[0][i] * dw[1][j] * g.invh));
         }
     } else {
+        const int* node = remap < 0 ? nullptr : &g.remap[remap];
         for (int k = 0; k < S; ++k)
             for (int j = 0; j < S; ++j) {
                 const int row = base[0] + (base[1] + j) * g.stride[1] + (base[2] + k) * g.stride[2];
                 const double wjk = w[1][j] * w[2][k];
                 for (int i = 0; i < S; ++i)
-                    f(row + i, w[0][i] * wjk,
+                    f(node ? node[i + S * (j + S * k)] : row + i, w[0][i] * wjk,
                       Vec<3>(dw[0][i] * wjk * g.invh, w[0][i] * dw[1][j] * w[2][k] * g.invh,
                              w[0][i] * w[1][j] * dw[2][k] * g.invh));
             }
     }
+}
+
+template <int D, class K>
+void Solver<D, K>::Stencil::mapAcrossCracks(const Vec<D>& x, Grid<D>& g, const PhantomNodes<D>& ph, int slot)
+{
+    // Phantom-node rule (Section 3.3.1): a marked node is replaced by its twin when the segment
+    // from the point to the node crosses the crack.
+    int node[NS];
+    bool any = false;
+    int k = 0;
+    if constexpr (D == 2) {
+        for (int j = 0; j < S; ++j)
+            for (int i = 0; i < S; ++i, ++k) {
+                node[k] = base[0] + i + (base[1] + j) * g.stride[1];
+                any = any || ph.marked(node[k]);
+            }
+    } else {
+        for (int kk = 0; kk < S; ++kk)
+            for (int j = 0; j < S; ++j)
+                for (int i = 0; i < S; ++i, ++k) {
+                    node[k] = base[0] + i + (base[1] + j) * g.stride[1] + (base[2] + kk) * g.stride[2];
+                    any = any || ph.marked(node[k]);
+                }
+    }
+    if (!any) return;
+    for (k = 0; k < NS; ++k)
+        if (ph.marked(node[k])) node[k] = ph.map(x, node[k], g.nodePosition(node[k]));
+    remap = slot * NS;
+    std::copy(node, node + NS, &g.remap[remap]);
 }
 
 template <int D, class K> Solver<D, K>::Solver(const SolverSettings& s) : settings_(s)
@@ -290,7 +331,7 @@ void Solver<D, K>::applyVelocityConditions(double t, bool afterForces, double dt
         }
         const Eigen::Vector3d vbar = c.value(t);
         if (afterForces) c.reaction.setZero();
-        for (int I : c.active)
+        auto constrain = [&](int I) {
             for (int d = 0; d < D; ++d) {
                 if (!(c.mask & (1u << d))) continue;
                 const double m = grid_.mass[I];
@@ -305,7 +346,52 @@ void Solver<D, K>::applyVelocityConditions(double t, bool afterForces, double dt
                     grid_.velocity[I][d] = grid_.invMass[I] > 0 ? vbar[d] : 0.0;
                 }
             }
+        };
+        // A condition holds at a location: it applies to the phantom twins of its nodes too.
+        for (int I : c.active) {
+            constrain(I);
+            phantom_.forEachTwin(I, constrain);
+        }
     }
+}
+
+template <int D, class K> int Solver<D, K>::addCrack(const std::vector<Eigen::Vector3d>& vertices)
+{
+    std::vector<Vec<D>> v;
+    for (const auto& p : vertices) v.push_back(p.head<D>());
+    return phantom_.addCrack(v);
+}
+
+template <int D, class K> void Solver<D, K>::advectCracks(double dt)
+{
+    // Crack vertices move with the material: the mass-weighted grid velocity around the vertex,
+    // sum N (P_I + P_twins) / sum N (m_I + m_twins), i.e. the mean motion of both faces. Weighting
+    // by mass keeps it bounded where a vertex sits among nearly empty nodes (outside the body).
+    const auto& g = grid_;
+    for (std::size_t c = 0; c < phantom_.numCracks(); ++c)
+        for (auto& v : phantom_.vertices(static_cast<int>(c))) {
+            Stencil st;
+            st.compute(v, g, lp_);
+            Vec<D> mom = Vec<D>::Zero();
+            double m = 0;
+            st.forEach(g, [&](int I, double N, const Vec<D>&) {
+                m += N * g.mass[I];
+                mom += N * g.momentum[I];
+                phantom_.forEachTwin(I, [&](int t) {
+                    m += N * g.mass[t];
+                    mom += N * g.momentum[t];
+                });
+            });
+            const Vec<D> vel = m > 0 ? Vec<D>(mom / m) : Vec<D>::Zero();
+            v += dt * vel;
+            for (int d = 0; d < D; ++d) {
+                const int b = K::base((v[d] - g.origin[d]) * g.invh);
+                if (b < 0 || b > g.n[d] - S)
+                    throw SimulationError("EigenMPM: a vertex of crack " + std::to_string(c) + " left the grid at " +
+                                          str<D>(v) + " in step " + std::to_string(steps_) +
+                                          "; give a larger domain");
+            }
+        }
 }
 
 template <int D, class K> void Solver<D, K>::step(double dt, int nThreads)
@@ -323,15 +409,22 @@ template <int D, class K> void Solver<D, K>::step(double dt, int nThreads)
     }
     nThreads = std::max(1, nThreads);
     const int np = static_cast<int>(points_.size());
-    const int nn = grid_.numNodes();
     auto& P = points_;
     auto& g = grid_;
     const double lp = lp_;
 
     binPoints(nThreads);
     stencil_.resize(np);
+    const bool cracks = !phantom_.empty();
+    if (cracks) {
+        // Marked nodes and their twins for the cracks' current position (Section 3.3.1); uGIMP's
+        // wider support marks one more ring of cells.
+        g.setTwins(phantom_.update(g, S == 3 ? 1 : 0));
+        g.remap.resize(static_cast<std::size_t>(np + 1) * Stencil::NS);  // + a scratch slot
+    }
+    const int nAll = g.totalNodes();
 #pragma omp parallel for schedule(static) num_threads(nThreads)
-    for (int I = 0; I < nn; ++I) {
+    for (int I = 0; I < nAll; ++I) {
         g.mass[I] = 0;
         g.momentum[I].setZero();
         g.force[I].setZero();
@@ -343,6 +436,7 @@ template <int D, class K> void Solver<D, K>::step(double dt, int nThreads)
         const int p = order_[k];
         Stencil& st = stencil_[k];
         st.compute(P.x[p], g, lp);
+        if (cracks) st.mapAcrossCracks(P.x[p], g, phantom_, k);
         const double mp = P.mass[p];
         const Vec<D> mv = mp * P.v[p];
         st.forEach(g, [&](int I, double N, const Vec<D>&) {
@@ -354,7 +448,7 @@ template <int D, class K> void Solver<D, K>::step(double dt, int nThreads)
     // (3)-(4) Nodal velocity (Eq 26) with the small-mass cut-off, then essential conditions.
     const double cut = massCutoffAbs_;
 #pragma omp parallel for schedule(static) num_threads(nThreads)
-    for (int I = 0; I < nn; ++I) {
+    for (int I = 0; I < nAll; ++I) {
         g.invMass[I] = g.mass[I] > cut && g.mass[I] > 0 ? 1.0 / g.mass[I] : 0.0;
         g.velocity[I] = g.momentum[I] * g.invMass[I];
     }
@@ -399,6 +493,7 @@ template <int D, class K> void Solver<D, K>::step(double dt, int nThreads)
         for (int p : tc.points) {
             Stencil st;
             st.compute(P.x[p], g, lp);
+            if (cracks) st.mapAcrossCracks(P.x[p], g, phantom_, np);
             const Vec<D> f = t * (P.volume[p] / tc.layer);
             st.forEach(g, [&](int I, double N, const Vec<D>&) { g.force[I] += N * f; });
         }
@@ -408,7 +503,7 @@ template <int D, class K> void Solver<D, K>::step(double dt, int nThreads)
     // the grid then holds the nodal acceleration (for Eq 30) and velocity (for Eq 31).
     applyVelocityConditions(time_ + 0.5 * dt, true, dt);
 #pragma omp parallel for schedule(static) num_threads(nThreads)
-    for (int I = 0; I < nn; ++I) {
+    for (int I = 0; I < nAll; ++I) {
         g.momentum[I] += dt * g.force[I];
         g.velocity[I] = g.momentum[I] * g.invMass[I];
         g.force[I] *= g.invMass[I];
@@ -440,6 +535,7 @@ template <int D, class K> void Solver<D, K>::step(double dt, int nThreads)
         }
         vmax2 = std::max(vmax2, P.v[p].squaredNorm());
     }
+    if (cracks) advectCracks(dt);
     maxSpeed_ = std::sqrt(vmax2);
     time_ += dt;
     ++steps_;

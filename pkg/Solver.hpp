@@ -11,6 +11,7 @@
 #include "EigenErosion.hpp"
 #include "ElasticMaterial.hpp"
 #include "Grid.hpp"
+#include "PhantomNodes.hpp"
 #include "MaterialPoints.hpp"
 #include "ShapeFunction.hpp"
 
@@ -53,6 +54,10 @@ public:
     /// fracture work at all.
     void setErosion(std::shared_ptr<EigenErosion<D>> e) { erosion_ = std::move(e); }
     const std::shared_ptr<EigenErosion<D>>& erosion() const { return erosion_; }
+    /// Adds a pre-existing crack (2D: polyline; 3D: planar polygon; z ignored in 2D); returns its
+    /// id. Its vertices then move with the material.
+    int addCrack(const std::vector<Eigen::Vector3d>& vertices);
+    const PhantomNodes<D>& phantomNodes() const { return phantom_; }
 
     // --- time stepping ------------------------------------------------------------------
     /// Largest stable dt: h / max over materials of (wave speed + current max point speed).
@@ -81,9 +86,13 @@ private:
     /// Weights N_Ip and gradients grad N_Ip of one point on its S^D support nodes (Eq 15).
     /// Computed once per step, in P2G, and reused by the stress/force scatter and by G2P.
     struct Stencil {
+        static constexpr int NS = D == 2 ? S * S : S * S * S;
         int base[D];
+        int remap;  ///< offset of the node indices in Grid::remap, or -1 (no crack near)
         double w[D][S], dw[D][S];
         void compute(const Vec<D>& x, const Grid<D>& g, double lp);
+        /// Replaces marked nodes by twins across the cracks, using slot `slot` of Grid::remap.
+        void mapAcrossCracks(const Vec<D>& x, Grid<D>& g, const PhantomNodes<D>& ph, int slot);
         /// Calls f(node index, N, grad N) for every support node, in a fixed order.
         template <class F> void forEach(const Grid<D>& g, F&& f) const;
     };
@@ -91,6 +100,7 @@ private:
     template <class F> void scatter(int nThreads, F&& perPoint);
     void binPoints(int nThreads);
     void applyVelocityConditions(double t, bool afterForces, double dt);
+    void advectCracks(double dt);
 
     SolverSettings settings_;
     double lp_;  ///< particle half-width in cells, 1/(2 ppc)
@@ -101,6 +111,7 @@ private:
     Vec<D> domainLo_, domainHi_;
     double massCutoffAbs_ = 0;
     std::shared_ptr<EigenErosion<D>> erosion_;
+    PhantomNodes<D> phantom_;
     std::vector<VelocityCondition> velocityConditions_;
     std::vector<TractionCondition> tractions_;
     std::vector<int> order_, stripStart_;  ///< points sorted (stably) by strip

@@ -249,6 +249,31 @@ template <class Sv> struct Bind {
                                   : s.erosion()->energyReleaseRate(s.points(), list);
         return scalars(g);
     }
+    static int addCrack(Sv& s, bp::object vertices)
+    {
+        std::vector<Eigen::Vector3d> v;
+        const long n = bp::len(vertices);
+        for (long i = 0; i < n; ++i) v.push_back(toVec3(vertices[i], "crack vertex"));
+        return s.addCrack(v);
+    }
+    static bp::list crackVertices(const Sv& s, int c)
+    {
+        const auto& ph = s.phantomNodes();
+        require(c >= 0 && c < static_cast<int>(ph.numCracks()), "crack id", c, "an existing crack");
+        bp::list l;
+        for (const auto& v : ph.vertices(c)) {
+            Eigen::Vector3d x = Eigen::Vector3d::Zero();
+            x.head<D>() = v;
+            l.append(fromVec3(x));
+        }
+        return l;
+    }
+    static bp::list markedNodes(const Sv& s)
+    {
+        bp::list l;
+        for (int I : s.phantomNodes().markedNodes()) l.append(I);
+        return l;
+    }
     static bp::dict materialInfo(const Sv& s, int id)
     {
         require(id >= 0 && id < static_cast<int>(s.materials().size()), "material (id)", id, "an existing id");
@@ -307,6 +332,11 @@ template <class Sv> struct Bind {
             .def("gridShape", &gridShape)
             .def("gridOrigin", &gridOrigin)
             .def("setErosion", &setErosion)
+            .def("addCrack", &addCrack)
+            .def("crackVertices", &crackVertices)
+            .add_property("numCracks", +[](const Sv& s) { return static_cast<int>(s.phantomNodes().numCracks()); })
+            .add_property("numTwins", +[](const Sv& s) { return s.phantomNodes().numTwins(); })
+            .def("markedNodes", &markedNodes)
             .def("energyReleaseRate", &energyReleaseRate, (bp::arg("ids"), bp::arg("bruteForce") = false))
             .add_property("erosion", +[](const Sv& s) { return s.erosion(); });
     }

@@ -239,6 +239,18 @@ class MpmEngine(PyRunner):
         return self.solver.addTraction([int(i) for i in pts], vec3(traction, "traction"),
                                        float(rampTime), float(self.h if layer is None else layer))
 
+    def crack(self, vertices):
+        """Adds a pre-existing crack (phantom nodes, paper Section 3.3.1): in 2D a segment or
+        polyline (list of 2 or more points), in 3D a planar polygon (3 or more points), in scene
+        coordinates (Vector3 or tuples; z ignored in 2D). An edge notch starts on (or beyond) the
+        body's boundary, an interior crack inside it; several cracks are allowed. The crack then
+        moves with the material. Returns the crack id."""
+        return self.solver.addCrack([vec3(v, "crack vertex") for v in vertices])
+
+    def crackVertices(self, crackId=0):
+        """Current vertices of a crack (they move with the material)."""
+        return [_vector(v) for v in self.solver.crackVertices(crackId)]
+
     @staticmethod
     def _indices(sel, finder):
         if callable(sel) or hasattr(sel, "aabb"):

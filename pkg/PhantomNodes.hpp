@@ -1,0 +1,67 @@
+// Pre-existing cracks by phantom nodes (paper Section 3.3.1). The nodes of the cells a crack
+// cuts (and, for uGIMP, of their neighbours, reached by the wider support) are "marked" and get a
+// phantom twin at the same coordinates. A point maps to the twin of a marked node when the
+// straight segment from the point to the node crosses the crack, to the node itself otherwise.
+// Nodes beyond the crack tip are reached without crossing, so they stay shared. This gives the
+// two faces independent velocity fields in a single-field solver.
+//
+// Cracks are polylines in 2D and planar polygons in 3D, in scene coordinates. Their vertices move
+// with the material (the mass-weighted velocity of a node and its twins), so a cracked body can
+// translate and rotate far; the marked nodes are recomputed every step, at a cost proportional
+// to the marked region.
+//
+// Determinism: a point exactly on the crack counts as being on its positive side (the side its
+// normal points to: left of the segment direction in 2D, the side of the Newell normal in 3D);
+// a segment through a polyline vertex counts one crossing (parameters in [0, 1) along each crack
+// segment), and a segment through the crack tip itself counts none.
+#pragma once
+#include <vector>
+
+#include "ElasticMaterial.hpp"
+#include "Grid.hpp"
+
+namespace emp {
+
+template <int D> class PhantomNodes {
+public:
+    /// Adds a crack; returns its id. 2D: a polyline of >= 2 distinct vertices. 3D: a planar
+    /// polygon of >= 3 vertices (non-planarity above 1e-6 of its size is refused).
+    int addCrack(const std::vector<Vec<D>>& vertices);
+    bool empty() const { return cracks_.empty(); }
+    std::size_t numCracks() const { return cracks_.size(); }
+    const std::vector<Vec<D>>& vertices(int c) const { return cracks_[c]; }
+    std::vector<Vec<D>>& vertices(int c) { return cracks_[c]; }
+
+    /// Marks the cells cut by the cracks, dilated by `rings` cells, and numbers the twins from
+    /// g.numNodes() on. Returns the number of twins.
+    int update(const Grid<D>& g, int rings);
+
+    bool marked(int node) const { return mark_[node] != 0; }
+    const std::vector<int>& markedNodes() const { return marked_; }
+    /// The node a point at x uses in place of the marked node I at xI: a twin or I itself.
+    int map(const Vec<D>& x, int I, const Vec<D>& xI) const;
+    /// Calls f(twin) for every twin of node I.
+    template <class F> void forEachTwin(int I, F&& f) const
+    {
+        if (!mark_.empty() && mark_[I])
+            for (std::size_t c = 0; c < cracks_.size(); ++c) {
+                const int t = twin_[c * numNodes_ + I];
+                if (t >= 0) f(t);
+            }
+    }
+    int numTwins() const { return numTwins_; }
+
+    /// Whether the segment p-q crosses crack c (the rule above).
+    bool crosses(int c, const Vec<D>& p, const Vec<D>& q) const;
+
+private:
+    void markCells(int c, const Grid<D>& g, std::vector<long>& cells) const;
+
+    std::vector<std::vector<Vec<D>>> cracks_;
+    std::vector<char> mark_;   ///< per regular node
+    std::vector<int> marked_;  ///< marked regular nodes, ascending
+    std::vector<int> twin_;    ///< twin_[c * numNodes + I], -1 if crack c gives I no twin
+    int numNodes_ = 0, numTwins_ = 0;
+};
+
+}  // namespace emp
