@@ -343,7 +343,7 @@ void Solver<D, K>::applyVelocityConditions(double t, bool afterForces, double dt
                     grid_.force[I][d] = applied;
                 } else {
                     grid_.momentum[I][d] = m * vbar[d];
-                    grid_.velocity[I][d] = grid_.invMass[I] > 0 ? vbar[d] : 0.0;
+                    grid_.velocity[I][d] = m > 0 ? vbar[d] : 0.0;
                 }
             }
         };
@@ -449,8 +449,11 @@ template <int D, class K> void Solver<D, K>::step(double dt, int nThreads)
     const double cut = massCutoffAbs_;
 #pragma omp parallel for schedule(static) num_threads(nThreads)
     for (int I = 0; I < nAll; ++I) {
+        // v_I = P_I / m_I is a mass-weighted mean of point velocities, bounded however light the
+        // node: no cut-off here, or the gradients in Eq 27 would stop summing to zero and a rigid
+        // motion would strain. The cut-off applies where a force is divided by the mass.
         g.invMass[I] = g.mass[I] > cut && g.mass[I] > 0 ? 1.0 / g.mass[I] : 0.0;
-        g.velocity[I] = g.momentum[I] * g.invMass[I];
+        g.velocity[I] = g.mass[I] > 0 ? Vec<D>(g.momentum[I] / g.mass[I]) : Vec<D>::Zero();
     }
     applyVelocityConditions(std::max(time_ - 0.5 * dt, 0.0), false, dt);
 
