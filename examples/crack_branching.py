@@ -6,15 +6,16 @@ Gc = 135 N/m, traction 12 MPa on the top and bottom edges applied suddenly, alph
 kappa = 1.1 h. Paper: h = 0.25 mm (256 000 points), dt = 0.01 us; initiation about 12 us,
 branching about 32 us, cut through at 68 us.
 
-The pre-crack is an open notch `notchWidth` wide (default 2 h) with no points in it; phantom
-nodes (a later version) will model it as a sharp crack. Choices: the traction acts on the
-points within one layer h of the edges (paper Eq 28).
+The pre-crack is a sharp crack modelled by phantom nodes (Section 3.3.1), from just outside
+the left edge to the centre (phantom=1, default); phantom=0 uses instead an open notch
+`notchWidthOverH` cells wide with no points in it. Choices: the traction acts on the points
+within one layer h of the edges (paper Eq 28).
 
 Run::
 
     yade -n -x examples/crack_branching.py [--quick] [--out DIR] [param=value ...]
 
-with params h_mm, kappaOverH, alpha, endTime_us, dt_us, notchWidthOverH, vtkPeriod_us. Writes
+with params h_mm, kappaOverH, alpha, endTime_us, dt_us, phantom, notchWidthOverH, vtkPeriod_us. Writes
 DIR/summary.json (initiation_time_us, max_tip_speed_m_s, dissipated_energy_J, particles,
 steps, wall_time_s, particle_steps_per_s, ...), DIR/damage.png, DIR/energy.png,
 DIR/tip_speed.png and a VTK series DIR/vtk/plate-*.vtp. --quick: h = 1 mm, 40 us.
@@ -31,7 +32,7 @@ from yade import O, pack, plot
 import eigenmpm as em
 from eigenmpm import plots
 
-DEFAULTS = dict(h_mm=0.25, kappaOverH=1.1, alpha=2.0, endTime_us=80.0, dt_us=0.01, notchWidthOverH=2.0,
+DEFAULTS = dict(h_mm=0.25, kappaOverH=1.1, alpha=2.0, endTime_us=80.0, dt_us=0.01, phantom=1.0, notchWidthOverH=2.0,
                 vtkPeriod_us=10.0, E=72e9, nu=0.22, rho=2440.0, Gc=135.0, traction_MPa=12.0)
 QUICK = dict(h_mm=1.0, endTime_us=40.0, dt_us=0.04)
 
@@ -61,12 +62,15 @@ def parse(argv):
 def build(o):
     h = o["h_mm"] * 1e-3
     L, W = 0.1, 0.04
-    notch = 0.5 * o["notchWidthOverH"] * h
-    plate = pack.inAlignedBox((0, 0, 0), (L, W, 0)) - pack.inAlignedBox((-1, 0.5 * W - notch, -1),
-                                                                        (0.5 * L, 0.5 * W + notch, 1))
+    plate = pack.inAlignedBox((0, 0, 0), (L, W, 0))
+    if not o["phantom"]:
+        notch = 0.5 * o["notchWidthOverH"] * h
+        plate = plate - pack.inAlignedBox((-1, 0.5 * W - notch, -1), (0.5 * L, 0.5 * W + notch, 1))
     mpm = em.MpmEngine(dim=2, h=h, ppc=2, thickness=h, label="plate")
     glass = em.ElasticMaterial(E=o["E"], nu=o["nu"], rho=o["rho"], planeStress=True)
     mpm.fill(plate, glass)
+    if o["phantom"]:
+        mpm.crack([(-h, 0.5 * W, 0), (0.5 * L, 0.5 * W, 0)])
     t = o["traction_MPa"] * 1e6
     mpm.traction(points=pack.inAlignedBox((-1, W - h, -1), (1, 1, 1)), traction=(0, t, 0))
     mpm.traction(points=pack.inAlignedBox((-1, -1, -1), (1, h, 1)), traction=(0, -t, 0))

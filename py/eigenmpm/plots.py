@@ -20,7 +20,8 @@ def _save(fig, path):
 
 def damageMap(mpm, path, title=None, scale=1e3, unit="mm"):
     """The points of a 2D MpmEngine at their current positions, intact blue and eroded red (like
-    the paper's Figures 8, 16, 20, 24). In 3D the points are projected on the x-y plane."""
+    the paper's Figures 8, 16, 20, 24), with the pre-existing cracks as black lines. In 3D the
+    points (and crack polygons) are projected on the x-y plane."""
     plt = _pyplot()
     x = mpm.solver.positions() * scale
     d = mpm.solver.damage()
@@ -32,6 +33,11 @@ def damageMap(mpm, path, title=None, scale=1e3, unit="mm"):
     intact = d > 0
     ax.scatter(x[intact, 0], x[intact, 1], s=size, c="#1f4e9c", marker="s", linewidths=0, label="intact")
     ax.scatter(x[~intact, 0], x[~intact, 1], s=3 * size, c="#d62728", marker="s", linewidths=0, label="eroded")
+    for c in range(mpm.solver.numCracks):
+        v = np.array([list(p) for p in mpm.solver.crackVertices(c)]) * scale
+        ax.plot(np.append(v[:, 0], v[0, 0]) if mpm.dim == 3 else v[:, 0],
+                np.append(v[:, 1], v[0, 1]) if mpm.dim == 3 else v[:, 1], "k-", lw=1.2,
+                label="pre-existing crack" if c == 0 else None)
     ax.set_aspect("equal")
     ax.set_xlabel(f"x ({unit})")
     ax.set_ylabel(f"y ({unit})")
