@@ -16,14 +16,15 @@ inline double orient(const Vec<2>& a, const Vec<2>& b, const Vec<2>& p)
 }
 
 /// Segment p-q against crack segment a-b: p and q on different sides of the line a-b (a point on
-/// the line counts as the positive side) and the crossing at a parameter t in [0, 1) along a-b.
-inline bool crossesSegment(const Vec<2>& p, const Vec<2>& q, const Vec<2>& a, const Vec<2>& b)
+/// the line counts as the positive side) and the crossing at a parameter t in [0, 1) along a-b,
+/// or in (0, 1) when a is the crack's first vertex (a tip, like the last one).
+inline bool crossesSegment(const Vec<2>& p, const Vec<2>& q, const Vec<2>& a, const Vec<2>& b, bool aIsTip)
 {
     if ((orient(a, b, p) >= 0) == (orient(a, b, q) >= 0)) return false;
     const double oa = orient(p, q, a), ob = orient(p, q, b);
     if (oa == ob) return false;
     const double t = oa / (oa - ob);
-    return t >= 0 && t < 1;
+    return (aIsTip ? t > 0 : t >= 0) && t < 1;
 }
 
 /// Newell normal (not normalised) and the polygon's size.
@@ -109,7 +110,7 @@ template <int D> bool PhantomNodes<D>::crosses(int c, const Vec<D>& p, const Vec
     if constexpr (D == 2) {
         bool odd = false;
         for (std::size_t i = 0; i + 1 < v.size(); ++i)
-            if (crossesSegment(p, q, v[i], v[i + 1])) odd = !odd;
+            if (crossesSegment(p, q, v[i], v[i + 1], i == 0)) odd = !odd;
         return odd;
     } else {
         const Vec<3> n = newellNormal(v);

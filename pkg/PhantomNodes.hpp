@@ -12,8 +12,8 @@
 //
 // Determinism: a point exactly on the crack counts as being on its positive side (the side its
 // normal points to: left of the segment direction in 2D, the side of the Newell normal in 3D);
-// a segment through a polyline vertex counts one crossing (parameters in [0, 1) along each crack
-// segment), and a segment through the crack tip itself counts none.
+// a segment through an interior polyline vertex counts one crossing (parameters in [0, 1) along
+// each crack segment), and a segment through either end of the crack (a tip) counts none.
 #pragma once
 #include <vector>
 
