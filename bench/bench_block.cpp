@@ -17,7 +17,8 @@
 // --steps N times exactly N steps per run instead of --min-time (the checksums then compare
 // builds: an optimisation that keeps the arithmetic must keep them).
 // --quick is --sizes 2e4 --size3d 2e4 --min-time 0.3 --warmup 1.
-// Output: a table on stdout, then one JSON object per line (prefix "JSON ") per run.
+// Output (stdout): one progress line per run, then a table, then one JSON object per line
+// (prefix "JSON ") per run.
 #include <chrono>
 #include <cinttypes>
 #include <cmath>
@@ -246,8 +247,9 @@ void runCase(const std::string& name, double size, const Options& o, std::vector
             r.deterministic = r.checksum == firstSum;
         }
         r.ratio = r.pps / firstPps;
-        std::fprintf(stderr, "  %-16s %9ld points  %2d threads  %6ld steps  %7.2f s  %.3e particle-steps/s\n",
-                     name.c_str(), r.points, r.threads, r.steps, r.wall, r.pps);
+        std::printf("  %-10s %9ld points  %2d threads  %6ld steps  %7.2f s  %.3e particle-steps/s\n",
+                    name.c_str(), r.points, r.threads, r.steps, r.wall, r.pps);
+        std::fflush(stdout);
         out.push_back(r);
     }
 }
