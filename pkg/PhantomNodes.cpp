@@ -128,6 +128,9 @@ template <int D> void PhantomNodes<D>::markCells(int c, const Grid<D>& g, std::v
     // Cells (as the index of their lowest node) that the crack passes through, in cell units.
     std::vector<Vec<D>> v;
     for (const auto& p : cracks_[c]) v.push_back((p - g.origin) * g.invh);
+    // First and last cell index along axis d for cell coordinates u, clipped to the grid's cells.
+    auto lowCell = [&](double u, int d) { return static_cast<long>(std::clamp(std::floor(u), 0.0, double(g.n[d] - 1))); };
+    auto highCell = [&](double u, int d) { return static_cast<long>(std::clamp(std::floor(u), -1.0, double(g.n[d] - 2))); };
     auto add = [&](const std::array<long, D>& cell) {
         long idx = 0;
         for (int d = 0; d < D; ++d) {
@@ -141,7 +144,8 @@ template <int D> void PhantomNodes<D>::markCells(int c, const Grid<D>& g, std::v
             const Vec<2>& a = v[s];
             const Vec<2>& b = v[s + 1];
             const double u0 = std::min(a[0], b[0]), u1 = std::max(a[0], b[0]);
-            for (long i = static_cast<long>(std::floor(u0)); i <= static_cast<long>(std::floor(u1)); ++i) {
+            // Loops clipped to the grid's cells: a vertex may lie far outside it.
+            for (long i = lowCell(u0, 0), iEnd = highCell(u1, 0); i <= iEnd; ++i) {
                 double y0, y1;
                 if (b[0] == a[0]) {
                     y0 = std::min(a[1], b[1]);
@@ -153,8 +157,7 @@ template <int D> void PhantomNodes<D>::markCells(int c, const Grid<D>& g, std::v
                     y0 = std::min(ya, yb);
                     y1 = std::max(ya, yb);
                 }
-                for (long j = static_cast<long>(std::floor(y0)); j <= static_cast<long>(std::floor(y1)); ++j)
-                    add({i, j});
+                for (long j = lowCell(y0, 1), jEnd = highCell(y1, 1); j <= jEnd; ++j) add({i, j});
             }
         }
     } else {
@@ -168,8 +171,8 @@ template <int D> void PhantomNodes<D>::markCells(int c, const Grid<D>& g, std::v
                 hi[d] = std::max(hi[d], p[d]);
             }
         const double half = std::sqrt(0.5);
-        for (long ib = static_cast<long>(std::floor(lo[b])); ib <= static_cast<long>(std::floor(hi[b])); ++ib)
-            for (long ic = static_cast<long>(std::floor(lo[cc])); ic <= static_cast<long>(std::floor(hi[cc])); ++ic) {
+        for (long ib = lowCell(lo[b], b), ibEnd = highCell(hi[b], b); ib <= ibEnd; ++ib)
+            for (long ic = lowCell(lo[cc], cc), icEnd = highCell(hi[cc], cc); ic <= icEnd; ++ic) {
                 const double mb = ib + 0.5, mc = ic + 0.5;
                 if (!insidePolygon(v, b, cc, mb, mc) && distanceToEdges(v, b, cc, mb, mc) > half) continue;
                 double amin = 1e300, amax = -1e300;
@@ -181,7 +184,7 @@ template <int D> void PhantomNodes<D>::markCells(int c, const Grid<D>& g, std::v
                 }
                 amin = std::max(amin, lo[a]);
                 amax = std::min(amax, hi[a]);
-                for (long ia = static_cast<long>(std::floor(amin)); ia <= static_cast<long>(std::floor(amax)); ++ia) {
+                for (long ia = lowCell(amin, a), iaEnd = highCell(amax, a); ia <= iaEnd; ++ia) {
                     std::array<long, 3> cell;
                     cell[a] = ia;
                     cell[b] = ib;

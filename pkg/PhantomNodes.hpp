@@ -50,6 +50,8 @@ public:
             }
     }
     int numTwins() const { return numTwins_; }
+    /// The twin that crack c gives node I, or -1.
+    int twin(int c, int I) const { return mark_.empty() ? -1 : twin_[c * static_cast<std::size_t>(numNodes_) + I]; }
 
     /// Whether the segment p-q crosses crack c (the rule above).
     bool crosses(int c, const Vec<D>& p, const Vec<D>& q) const;

@@ -741,4 +741,46 @@ TYPED_TEST(PhantomSolverTest, CrackTranslatesWithTheBody)
     EXPECT_LT(worst, 1e-9 * kE * v0.norm() * dt / kH);
 }
 
+TYPED_TEST(PhantomSolverTest, CrackReachingFarOutsideTheBodyTranslatesWithIt)
+{
+    // A through crack and an edge crack whose outer vertices lie 2.5 cells outside the block, out
+    // of reach of any material (no mass in their stencil), and a through crack whose ends lie 500
+    // cells beyond the grid: they must still move with the body, or the crack turns and cuts the
+    // body elsewhere.
+    constexpr int D = TypeParam::D;
+    emp::SolverSettings st;
+    st.h = kH;
+    typename TypeParam::S s(st);
+    const int mat = s.addMaterial(kE, kNu, kRho, false);
+    std::array<int, D> lo, hi;
+    lo.fill(4);
+    hi.fill(D == 2 ? 12 : 8);
+    Vec<D> v0;
+    for (int d = 0; d < D; ++d) v0[d] = 0.7 - 0.3 * d;
+    emptest::addBlock<D>(s, lo, hi, mat, [&](const Vec<D>&) { return v0; });
+    Eigen::Vector3d lo3 = Eigen::Vector3d::Zero(), hi3 = Eigen::Vector3d::Ones();
+    for (int d = 0; d < D; ++d) hi3[d] = (hi[d] + 8) * kH;
+    s.setDomain(lo3, hi3);
+    s.addCrack(crackAcross<D>(lo[0] + 1.37, lo, hi, 2.5));                 // through
+    s.addCrack(crackAcross<D>(lo[0] + 2.61, lo, hi, 2.5, hi[1] - 2.55));  // edge
+    s.addCrack(crackAcross<D>(lo[0] + 3.4, lo, hi, 500.0));              // ends far beyond the grid
+    const std::vector<std::vector<Vec<D>>> start = {s.phantomNodes().vertices(0), s.phantomNodes().vertices(1),
+                                                    s.phantomNodes().vertices(2)};
+    double t = 0;
+    const double dt = 0.5 * s.criticalTimeStep();
+    const int steps = static_cast<int>(std::ceil(4 * kH / (v0.norm() * dt)));
+    for (int n = 0; n < steps; ++n) {
+        s.step(dt, 1);
+        t += dt;
+    }
+    for (int c = 0; c < 3; ++c)
+        for (std::size_t k = 0; k < start[c].size(); ++k)
+            EXPECT_LT((s.phantomNodes().vertices(c)[k] - start[c][k] - v0 * t).norm(), 1e-9 * kH * (c == 2 ? 500 : 1))
+                << "crack " << c << ", vertex " << k << " at " << s.phantomNodes().vertices(c)[k].transpose()
+                << ", expected " << (start[c][k] + v0 * t).transpose();
+    double worst = 0;
+    for (const auto& sg : s.points().stress) worst = std::max(worst, sg.norm());
+    EXPECT_LT(worst, 1e-9 * kE * v0.norm() * dt / kH);
+}
+
 }  // namespace
