@@ -14,6 +14,7 @@ within one layer h of the edges (paper Eq 28).
 Run::
 
     yade -n -x examples/crack_branching.py [--quick] [--out DIR] [param=value ...]
+    yade-batch table.txt examples/crack_branching.py      # a column per parameter (and quick)
 
 with params h_mm, kappaOverH, alpha, endTime_us, dt_us, phantom, notchWidthOverH, vtkPeriod_us. Writes
 DIR/summary.json (initiation_time_us, max_tip_speed_m_s, dissipated_energy_J, particles,
@@ -31,32 +32,11 @@ from yade import O, pack, plot
 
 import eigenmpm as em
 from eigenmpm import plots
+from eigenmpm.cli import scriptArgs
 
 DEFAULTS = dict(h_mm=0.25, kappaOverH=1.1, alpha=2.0, endTime_us=80.0, dt_us=0.01, phantom=1.0, notchWidthOverH=2.0,
                 vtkPeriod_us=10.0, E=72e9, nu=0.22, rho=2440.0, Gc=135.0, traction_MPa=12.0)
 QUICK = dict(h_mm=1.0, endTime_us=40.0, dt_us=0.04)
-
-
-def parse(argv):
-    opts, out, quick = dict(DEFAULTS), "out/crack_branching", False
-    it = iter(argv)
-    for a in it:
-        if a == "--quick":
-            quick = True
-        elif a == "--out":
-            out = next(it)
-        elif "=" in a:
-            k, v = a.split("=", 1)
-            if k not in DEFAULTS:
-                raise SystemExit(f"crack_branching: unknown parameter {k}; known: {', '.join(DEFAULTS)}")
-            opts[k] = float(v)
-        else:
-            raise SystemExit(f"crack_branching: unknown argument {a}")
-    if quick:
-        for k, v in QUICK.items():
-            if not any(a.startswith(k + "=") for a in argv):
-                opts[k] = v
-    return opts, out, quick
 
 
 def build(o):
@@ -80,7 +60,7 @@ def build(o):
 
 
 def main(argv):
-    o, out, quick = parse(argv)
+    o, out, quick = scriptArgs("crack_branching", DEFAULTS, QUICK, argv)
     os.makedirs(out, exist_ok=True)
     O.reset()
     plot.reset()

@@ -14,6 +14,7 @@ v t. The run is dynamic (explicit), so the load carries inertial oscillations.
 Run::
 
     yade -n -x examples/lshaped_panel.py [--quick] [--out DIR] [param=value ...]
+    yade-batch table.txt examples/lshaped_panel.py        # a column per parameter (and quick)
 
 params: h_mm, alpha, kappaOverH, velocity_m_s, endDisplacement_mm, dtFraction, loadWidth_mm.
 Writes DIR/summary.json (peak_load_kN, displacement_at_peak_mm, ...), DIR/load_displacement.csv,
@@ -31,33 +32,12 @@ from yade import O, pack, plot
 
 import eigenmpm as em
 from eigenmpm import plots
+from eigenmpm.cli import scriptArgs
 
 DEFAULTS = dict(h_mm=5.0, alpha=1.5, kappaOverH=1.1, velocity_m_s=0.01, endDisplacement_mm=0.5,
                 dtFraction=0.8, loadWidth_mm=0.0, E=25.85e9, nu=0.18, rho=2500.0, Gc=89.0)
 QUICK = dict(h_mm=10.0)
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(sys.argv[0])))
-
-
-def parse(argv):
-    opts, out, quick = dict(DEFAULTS), "out/lshaped_panel", False
-    it = iter(argv)
-    given = set()
-    for a in it:
-        if a == "--quick":
-            quick = True
-        elif a == "--out":
-            out = next(it)
-        elif "=" in a:
-            k, v = a.split("=", 1)
-            if k not in DEFAULTS:
-                raise SystemExit(f"lshaped_panel: unknown parameter {k}; known: {', '.join(DEFAULTS)}")
-            opts[k] = float(v)
-            given.add(k)
-        else:
-            raise SystemExit(f"lshaped_panel: unknown argument {a}")
-    if quick:
-        opts.update({k: v for k, v in QUICK.items() if k not in given})
-    return opts, out, quick
 
 
 def experiment():
@@ -72,7 +52,7 @@ def experiment():
 
 
 def main(argv):
-    o, out, quick = parse(argv)
+    o, out, quick = scriptArgs("lshaped_panel", DEFAULTS, QUICK, argv)
     os.makedirs(out, exist_ok=True)
     O.reset()
     plot.reset()

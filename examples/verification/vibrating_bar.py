@@ -8,7 +8,7 @@ The measured omega is 2 pi over the mean period between upward zero crossings of
 
 Run::
 
-    yade -n -x examples/verification/vibrating_bar.py [--quick] [--out DIR] [cells=N] [shape=linear]
+    yade -n -x examples/verification/vibrating_bar.py [--quick] [--out DIR] [cells=N] [shape=linear] [plot=0]
 
 writes DIR/summary.json (omega_numeric, omega_analytic, rel_error, particles, steps,
 wall_time_s, particle_steps_per_s, ...) and DIR/tip_displacement.png (tip displacement over
@@ -24,28 +24,11 @@ import numpy as np
 from yade import O, pack
 
 import eigenmpm as em
+from eigenmpm.cli import scriptArgs
 
 
-def parse(argv):
-    opts = {"quick": False, "out": "out/vibrating_bar", "cells": 80, "shape": "uGIMP", "ppc": 2,
-            "periods": 3.0, "dtFraction": 0.5, "plot": True}
-    it = iter(argv)
-    for a in it:
-        if a == "--quick":
-            opts["quick"] = True
-            opts["cells"] = 20
-        elif a == "--out":
-            opts["out"] = next(it)
-        elif a == "--no-plot":
-            opts["plot"] = False
-        elif "=" in a:
-            k, v = a.split("=", 1)
-            if k not in opts:
-                raise SystemExit(f"vibrating_bar: unknown parameter {k}; known: {', '.join(opts)}")
-            opts[k] = type(opts[k])(v) if not isinstance(opts[k], bool) else v in ("1", "true", "True")
-        else:
-            raise SystemExit(f"vibrating_bar: unknown argument {a}")
-    return opts
+DEFAULTS = dict(cells=80, shape="uGIMP", ppc=2, periods=3.0, dtFraction=0.5, plot=True)
+QUICK = dict(cells=20)
 
 
 def run(cells=80, shape="uGIMP", ppc=2, periods=3.0, dtFraction=0.5, L=1.0, E=1e7, rho=1000.0, v0=1e-3,
@@ -122,15 +105,15 @@ def plot(out, series):
 
 
 def main(argv):
-    opts = parse(argv)
-    os.makedirs(opts["out"], exist_ok=True)
+    opts, out, _ = scriptArgs("vibrating_bar", DEFAULTS, QUICK, argv)
+    os.makedirs(out, exist_ok=True)
     summary, series = run(**opts)
-    path = os.path.join(opts["out"], "summary.json")
+    path = os.path.join(out, "summary.json")
     with open(path, "w") as f:
         json.dump(summary, f, indent=2)
     print(json.dumps(summary, indent=2))
     if opts["plot"]:
-        print("plot:", plot(opts["out"], series))
+        print("plot:", plot(out, series))
     print("summary:", path)
     return summary
 
