@@ -11,6 +11,7 @@ while the intact bar stretches and carries sigma_xx = E/(1 - nu^2) 2 v (t - t0/2
 Run::
 
     yade -n -x examples/verification/precracked_bar.py [--quick] [--out DIR] [name=value ...]
+    yade-batch table.txt examples/verification/precracked_bar.py   # a column per parameter
 
 with names cells (along the bar), ppc, transits (duration in wave transits L/c), rampTransits,
 dtFraction, velocity, plot. --quick: 20 cells. Writes DIR/summary.json:
@@ -37,35 +38,10 @@ import numpy as np
 from yade import O, pack
 
 import eigenmpm as em
+from eigenmpm.cli import scriptArgs
 
-DEFAULTS = {"cells": 40, "ppc": 2, "transits": 6.0, "rampTransits": 2.0, "dtFraction": 0.3,
-            "velocity": 1.0, "plot": True}
-QUICK = {"cells": 20}
-
-
-def parse(argv):
-    opts, out, quick = dict(DEFAULTS), "out/precracked_bar", False
-    given = {}
-    it = iter(argv)
-    for a in it:
-        if a == "--quick":
-            quick = True
-        elif a == "--out":
-            out = next(it, None)
-            if out is None:
-                raise SystemExit("precracked_bar: --out needs a directory")
-        elif "=" in a:
-            k, v = a.split("=", 1)
-            if k not in DEFAULTS:
-                raise SystemExit(f"precracked_bar: unknown parameter {k}; known: {', '.join(DEFAULTS)}")
-            d = DEFAULTS[k]
-            given[k] = v.lower() in ("1", "true", "yes") if isinstance(d, bool) else type(d)(v)
-        else:
-            raise SystemExit(f"precracked_bar: unknown argument {a!r}; usage: [--quick] [--out DIR] [name=value ...]")
-    if quick:
-        opts.update(QUICK)
-    opts.update(given)
-    return opts, out
+DEFAULTS = dict(cells=40, ppc=2, transits=6.0, rampTransits=2.0, dtFraction=0.3, velocity=1.0, plot=True)
+QUICK = dict(cells=20)
 
 
 def pull(cracked, cells=40, ppc=2, transits=6.0, rampTransits=2.0, dtFraction=0.3, velocity=1.0, L=0.2, H=0.05,
@@ -185,7 +161,7 @@ def plot(out, states, summary):
 
 
 def main(argv):
-    opts, out = parse(argv)
+    opts, out, _ = scriptArgs("precracked_bar", DEFAULTS, QUICK, argv)
     os.makedirs(out, exist_ok=True)
     summary, states = run(**opts)
     path = os.path.join(out, "summary.json")
