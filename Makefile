@@ -11,7 +11,7 @@ DEBS := yade cmake make g++ libeigen3-dev libboost-python1.74-dev libboost-numpy
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 export PYTHONPATH := $(CURDIR)/$(BUILD)/python$(if $(PYTHONPATH),:$(PYTHONPATH))
 
-.PHONY: deps build demo test bench clean
+.PHONY: deps build demo test bench clean reference
 
 deps:
 	@missing=$$(for p in $(DEBS); do dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "ok installed" || echo $$p; done); \
@@ -34,6 +34,11 @@ test: build
 
 bench: build
 	bash bench/run.sh
+
+# Re-record the regression references examples/reference/NAME.json from runs on this machine
+# (values only; the tolerances stay): make reference NAMES="crack_branching lshaped_panel"
+reference: build
+	PYTHONPATH=$(PYTHONPATH):$(YADE_PY) $(PYTHON) -m eigenmpm.regression record $(NAMES)
 
 clean:
 	rm -rf $(BUILD) out
