@@ -51,6 +51,8 @@ int EigenErosion<D>::apply(MaterialPoints<D>& P, const std::vector<ElasticMateri
     const double hSource = s.Gc / (s.alpha * s.kappa);  // alpha kappa H >= Gc  <=>  H >= hSource
     const int n = static_cast<int>(P.size());
     sources_.clear();
+    eroding_.clear();
+    before_.clear();
     for (int p = 0; p < n; ++p)
         if (P.history[p] >= hSource && P.damage[p] > 0) sources_.push_back(p);
     searched_ = !sources_.empty();
@@ -75,11 +77,11 @@ int EigenErosion<D>::apply(MaterialPoints<D>& P, const std::vector<ElasticMateri
     std::vector<char> erode(nc, 0);
 #pragma omp parallel for schedule(static) num_threads(nThreads)
     for (int k = 0; k < nc; ++k) erode[k] = rate(P, candidates_[k]) >= s.Gc;
-    eroding_.clear();
     for (int k = 0; k < nc; ++k)
         if (erode[k]) eroding_.push_back(candidates_[k]);
     for (int p : eroding_) {
         const ElasticMaterial& m = materials[P.material[p]];
+        before_.push_back(P.stress[p]);
         P.damage[p] = 0.0;
         P.stress[p] = spectralSplit<D>(P.strain[p], m.lambda, m.mu).sigmaMinus;  // g(0) sigma+ + sigma-
         dissipated_ += s.Gc / (2.0 * s.kappa) * P.volume[p];                    // Eq 33

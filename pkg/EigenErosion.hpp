@@ -50,6 +50,9 @@ public:
     const std::vector<ErosionEvent>& events() const { return events_; }
     bool searchedLastStep() const { return searched_; }   ///< whether the last apply() searched
     std::size_t candidatesLastStep() const { return candidates_.size(); }
+    /// Points eroded by the last apply(), ascending, and their stress just before erosion.
+    const std::vector<int>& lastEroded() const { return eroding_; }
+    const std::vector<Mat<D>>& stressBeforeErosion() const { return before_; }
 
 private:
     void buildList(const MaterialPoints<D>& P, const std::vector<int>& around, double margin);
@@ -61,6 +64,7 @@ private:
     bool searched_ = false;
     CellList<D> cells_;
     std::vector<int> sources_, binned_, candidates_, eroding_;
+    std::vector<Mat<D>> before_;
     std::vector<char> mark_;
 };
 

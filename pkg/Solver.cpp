@@ -363,6 +363,13 @@ void Solver<D, K>::applyVelocityConditions(double t, bool afterForces, double dt
     }
 }
 
+template <int D, class K> bool Solver<D, K>::nearMarked(const Stencil& st) const
+{
+    for (int d = 0; d < D; ++d)
+        if (st.base[d] > markedHi_[d] || st.base[d] + S - 1 < markedLo_[d]) return false;
+    return true;
+}
+
 template <int D, class K> int Solver<D, K>::addCrack(const std::vector<Eigen::Vector3d>& vertices)
 {
     std::vector<Vec<D>> v;
@@ -499,6 +506,21 @@ template <int D, class K> void Solver<D, K>::step(double dt, int nThreads)
         // Marked nodes and their twins for the cracks' current position (Section 3.3.1); uGIMP's
         // wider support marks one more ring of cells.
         g.setTwins(phantom_.update(g, S == 3 ? 1 : 0));
+        // Box (in node indices) of the marked nodes: points whose support lies outside it skip
+        // the per-node test, so the cost follows the marked region.
+        for (int d = 0; d < D; ++d) {
+            markedLo_[d] = INT_MAX;
+            markedHi_[d] = INT_MIN;
+        }
+        for (int I : phantom_.markedNodes()) {
+            int r = I;
+            for (int d = D - 1; d >= 0; --d) {
+                const int i = r / g.stride[d];
+                r -= i * g.stride[d];
+                markedLo_[d] = std::min(markedLo_[d], i);
+                markedHi_[d] = std::max(markedHi_[d], i);
+            }
+        }
         g.remap.resize(static_cast<std::size_t>(np + 1) * Stencil::NS);  // + a scratch slot
     }
     const int nAll = g.totalNodes();
@@ -515,7 +537,7 @@ template <int D, class K> void Solver<D, K>::step(double dt, int nThreads)
         const int p = order_[k];
         Stencil& st = stencil_[k];
         st.compute(P.x[p], g, lp);
-        if (cracks) st.mapAcrossCracks(P.x[p], g, phantom_, k);
+        if (cracks && nearMarked(st)) st.mapAcrossCracks(P.x[p], g, phantom_, k);
         const double mp = P.mass[p];
         const Vec<D> mv = mp * P.v[p];
         st.forEach(g, [&](int I, double N, const Vec<D>&) {
@@ -556,18 +578,25 @@ template <int D, class K> void Solver<D, K>::step(double dt, int nThreads)
         const Vec<D> fb = P.mass[p] * gravity;
         st.forEach(g, [&](int I, double N, const Vec<D>& grad) { g.force[I] += N * fb - vs * grad; });
     };
-    if (!erosion_) {
-        scatter(nThreads, [&](int k) {
-            updateStress(order_[k], stencil_[k]);
-            scatterForce(order_[k], stencil_[k]);
-        });
-    } else {
-        // (5.iv) Eigenerosion (Eqs 23-24) between the stress update and the forces, so an
-        // eroded point already acts with sigma- only in this step's internal force.
-#pragma omp parallel for schedule(static) num_threads(nThreads)
-        for (int k = 0; k < np; ++k) updateStress(order_[k], stencil_[k]);
-        erosion_->apply(P, materials_, steps_ + 1, time_ + dt, nThreads);
-        scatter(nThreads, [&](int k) { scatterForce(order_[k], stencil_[k]); });
+    scatter(nThreads, [&](int k) {
+        updateStress(order_[k], stencil_[k]);
+        scatterForce(order_[k], stencil_[k]);
+    });
+    if (erosion_ && erosion_->apply(P, materials_, steps_ + 1, time_ + dt, nThreads) > 0) {
+        // (5.iv) Eigenerosion (Eqs 23-24) belongs between the stress update and the internal
+        // force, so that an eroded point acts with sigma- alone in this step already. The force
+        // is linear in the stress: the eroded points' change of stress is scattered as a
+        // correction, serially in the erosion order, instead of a separate pass over all points.
+        const auto& eroded = erosion_->lastEroded();
+        const auto& before = erosion_->stressBeforeErosion();
+        for (std::size_t e = 0; e < eroded.size(); ++e) {
+            const int p = eroded[e];
+            Stencil st;
+            st.compute(P.x[p], g, lp);
+            if (cracks) st.mapAcrossCracks(P.x[p], g, phantom_, np);
+            const Mat<D> dvs = P.volume[p] * (P.stress[p] - before[e]);
+            st.forEach(g, [&](int I, double, const Vec<D>& grad) { g.force[I] -= dvs * grad; });
+        }
     }
     // Traction on boundary points (Eq 28); few points, applied serially in a fixed order.
     for (const auto& tc : tractions_) {

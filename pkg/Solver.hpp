@@ -101,6 +101,7 @@ private:
     void binPoints(int nThreads);
     void applyVelocityConditions(double t, bool afterForces, double dt);
     void advectCracks(double dt);
+    bool nearMarked(const Stencil& st) const;
 
     SolverSettings settings_;
     double lp_;  ///< particle half-width in cells, 1/(2 ppc)
@@ -112,6 +113,7 @@ private:
     double massCutoffAbs_ = 0;
     std::shared_ptr<EigenErosion<D>> erosion_;
     PhantomNodes<D> phantom_;
+    int markedLo_[D] = {}, markedHi_[D] = {};  ///< box of the marked nodes, node indices
     std::vector<VelocityCondition> velocityConditions_;
     std::vector<TractionCondition> tractions_;
     std::vector<int> order_, stripStart_;  ///< points sorted (stably) by strip
