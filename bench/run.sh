@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Builds (if needed) and runs the step-throughput benchmark (bench/bench_block.cpp), printing the
-# machine first. `make bench` calls this. Arguments are passed to bench_block, e.g.
+# machine first, then the fracture-overhead benchmark (bench/bench_fracture.cpp; its arguments
+# in FRACTURE_ARGS, e.g. FRACTURE_ARGS=--quick). `make bench` calls this. Arguments are passed
+# to bench_block, e.g.
 #   bash bench/run.sh --quick
 #   bash bench/run.sh --sizes 1e5,1e6 --threads 1,2 --min-time 3 --cases gimp2,linear2,gimp3
 # Environment: BUILD (build directory, default build), PYTHON (default /usr/bin/python3.11).
@@ -13,7 +15,7 @@ if [ ! -f "$BUILD/CMakeCache.txt" ]; then
   cmake -S . -B "$BUILD" -DCMAKE_BUILD_TYPE=Release -DPython3_EXECUTABLE="$PYTHON" > /dev/null
 fi
 # Re-running cmake picks up bench/*.cpp added since the last configure (CONFIGURE_DEPENDS).
-cmake --build "$BUILD" --target bench_block -j "$(nproc)" > /dev/null
+cmake --build "$BUILD" --target bench_block bench_fracture -j "$(nproc)" > /dev/null
 
 echo "== machine"
 echo "host:       $(uname -n) ($(uname -sr))"
@@ -30,3 +32,7 @@ echo "date:       $(date -u +%Y-%m-%dT%H:%M:%SZ)   commit: $commit"
 echo
 echo "== bench_block $*"
 "$BUILD/bench_block" "$@"
+echo
+echo "== bench_fracture ${FRACTURE_ARGS:-}"
+# shellcheck disable=SC2086
+"$BUILD/bench_fracture" ${FRACTURE_ARGS:-}
