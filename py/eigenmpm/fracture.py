@@ -110,7 +110,7 @@ class EigenErosion(PyRunner):
         crack origin: no eroded point within R = 6 kappa of it lies farther from the origin.
         Tips closer than R to a farther tip are merged into it. A straight crack has one tip;
         after branching each branch has its own; erosion behind the front (the band widening)
-        is never a tip."""
+        is never a tip. Only the crack grown from the origin counts (see _mainCrack)."""
         mpm = mpm or self._mpm
         events = self.core.events() if self.core else []
         if not events:
@@ -119,8 +119,9 @@ class EigenErosion(PyRunner):
         now = mpm.solver.time
         x = mpm.solver.positions()
         origin = self._originPoint(x, events)
-        ids = np.array([p for p, _, _ in events])
-        recent = np.array([p for p, _, t in events if t >= now - window])
+        ids = self._mainCrack(x, [p for p, _, _ in events], origin)
+        main = set(ids.tolist())
+        recent = np.array([p for p, _, t in events if t >= now - window and p in main])
         if len(recent) == 0:
             return []
         R2 = (6.0 * self.core.kappa) ** 2
@@ -149,8 +150,31 @@ class EigenErosion(PyRunner):
         if not events:
             return 0.0
         x = mpm.solver.positions()
-        ids = [p for p, _, _ in events]
-        return float(np.sqrt(np.max(np.sum((x[ids] - self._originPoint(x, events)) ** 2, axis=1))))
+        origin = self._originPoint(x, events)
+        ids = self._mainCrack(x, [p for p, _, _ in events], origin)
+        return float(np.sqrt(np.max(np.sum((x[ids] - origin) ** 2, axis=1))))
+
+    def _mainCrack(self, x, ids, origin):
+        """The eroded points of the crack grown from the origin: those linked to the eroded point
+        nearest the origin through eroded points in neighbouring cells of size R = 6 kappa.
+        Erosion elsewhere (under a support, a second crack) is left out of the tips and the
+        front, so that it cannot make the front jump."""
+        ids = np.asarray(ids)
+        R = 6.0 * self.core.kappa
+        cell = np.floor(x[ids] / R).astype(np.int64)
+        occupied = {tuple(c) for c in cell}
+        start = tuple(cell[np.argmin(np.sum((x[ids] - origin) ** 2, axis=1))])
+        reached, stack = {start}, [start]
+        offsets = list(np.ndindex(3, 3, 3))  # in 2D z = 0 throughout, so z offsets find nothing
+        while stack:
+            c = stack.pop()
+            for o in offsets:
+                n = (c[0] + o[0] - 1, c[1] + o[1] - 1, c[2] + o[2] - 1)
+                if n in occupied and n not in reached:
+                    reached.add(n)
+                    stack.append(n)
+        keep = np.array([tuple(c) in reached for c in cell])
+        return ids[keep]
 
     def record(self, mpm=None):
         mpm = mpm or self._mpm

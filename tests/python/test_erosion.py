@@ -163,3 +163,16 @@ def test_warns_when_kappa_holds_only_the_point_itself():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         em.EigenErosion(engine=mpm, Gc=10.0, kappaOverH=1.1)
+
+
+def test_stray_erosion_far_away_is_not_part_of_the_main_crack():
+    class Core:
+        kappa = 0.001
+
+    er = em.EigenErosion(Gc=1.0, kappa=0.001)
+    er.core = Core()
+    crack = [(0.01 + 0.0005 * i, 0.02, 0.0) for i in range(20)]   # a crack from (0.01, 0.02)
+    stray = [(0.09, 0.001, 0.0), (0.0905, 0.001, 0.0)]           # erosion under a far support
+    x = np.array(crack + stray)
+    main = er._mainCrack(x, list(range(len(x))), np.array([0.01, 0.02, 0.0]))
+    assert sorted(main.tolist()) == list(range(20))
