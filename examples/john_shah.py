@@ -76,6 +76,7 @@ from yade import O, pack, plot
 import eigenmpm as em
 from eigenmpm import plots
 from eigenmpm.cli import scriptArgs
+from eigenmpm.fracture import linked
 
 DEFAULTS = dict(gamma=0.5, h_mm=0.635, kappaOverH=1.15, alpha=2.0, endTime_us=4000.0, dt_us=0.1,
                 v0_m_s=0.06, rampTime_us=196.0, overhang_mm=12.7, flaw_mm=1.27,
@@ -117,19 +118,7 @@ def build(o):
 
 def connected(X0, ids, seed, radius):
     """Indices into ids of the points connected to ids[seed] within radius."""
-    from scipy.spatial import cKDTree
-    x = X0[ids, :2]
-    tree = cKDTree(x)
-    seen = np.zeros(len(ids), bool)
-    seen[seed] = True
-    todo = [seed]
-    while todo:
-        i = todo.pop()
-        for j in tree.query_ball_point(x[i], radius):
-            if not seen[j]:
-                seen[j] = True
-                todo.append(j)
-    return np.nonzero(seen)[0]
+    return np.nonzero(linked(X0[ids, :2], seed, radius))[0]
 
 
 def analyse(o, X0, events, kappa):

@@ -86,6 +86,7 @@ from yade import O, pack, plot
 import eigenmpm as em
 from eigenmpm import plots
 from eigenmpm.cli import scriptArgs
+from eigenmpm.fracture import linked
 
 DEFAULTS = dict(h_mm=0.5, kappaOverH=1.15, alpha=2.0, endTime_us=110.0, dt_us=0.01, v0_m_s=16.5,
                 rampTime_us=1.0, slitWidth_mm=1.0, slitLength_mm=40.0, stopAfter_us=2.0, initLength_mm=10.0,
@@ -129,20 +130,9 @@ def crackPoints(X0, events, tip, radius):
     reference configuration, to the eroded point nearest the notch tip; and the others."""
     if not events:
         return [], []
-    from scipy.spatial import cKDTree
     ids = np.array([e[0] for e in events])
     x = X0[ids, :2]
-    seed = int(np.argmin(np.sum((x - tip) ** 2, axis=1)))
-    tree = cKDTree(x)
-    seen = np.zeros(len(ids), bool)
-    seen[seed] = True
-    todo = [seed]
-    while todo:
-        i = todo.pop()
-        for j in tree.query_ball_point(x[i], radius):
-            if not seen[j]:
-                seen[j] = True
-                todo.append(j)
+    seen = linked(x, int(np.argmin(np.sum((x - tip) ** 2, axis=1))), radius)
     pick = [(int(e[0]), float(e[2])) for e, s in zip(events, seen) if s]
     rest = [(int(e[0]), float(e[2])) for e, s in zip(events, seen) if not s]
     return pick, rest

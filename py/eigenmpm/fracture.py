@@ -10,6 +10,22 @@ from .engines import _register, findEngine
 from .params import Param, apply, declare, vec3
 
 
+def linked(x, seed, radius):
+    """Boolean mask of the rows of x (n x dim) linked to row `seed` through chains of points no
+    farther apart than `radius` (a flood fill with scipy's k-d tree)."""
+    from scipy.spatial import cKDTree
+    tree = cKDTree(x)
+    seen = np.zeros(len(x), bool)
+    seen[seed] = True
+    todo = [seed]
+    while todo:
+        for j in tree.query_ball_point(x[todo.pop()], radius):
+            if not seen[j]:
+                seen[j] = True
+                todo.append(j)
+    return seen
+
+
 def kappaRange(h, dim):
     """Appendix A (Eq A3): the sensible range of kappa for cell size h, as (low, high)."""
     f = math.sqrt(2.0) if dim == 2 else 6.0 ** (1.0 / 3.0)
