@@ -1,5 +1,6 @@
-"""EigenMPM: dynamic brittle fracture in continua for YADE (material point method on a GIMP
-grid; phantom nodes and eigenerosion come with later versions).
+"""EigenMPM: dynamic brittle fracture in continua for YADE: the material point method on a
+GIMP grid, eigenerosion for crack growth (EigenErosion) and phantom nodes for pre-existing
+cracks (MpmEngine.crack).
 
 Put the engines in ``O.engines`` beside YADE's own::
 
@@ -14,5 +15,5 @@ from .fracture import EigenErosion, kappaRange
 from .materials import ElasticMaterial
 from .recorders import PlotRecorder, Progress, VTKRecorder
 
-__all__ = ["MpmEngine", "EigenErosion", "kappaRange", "VelocityBC", "ElasticMaterial", "VTKRecorder", "PlotRecorder", "Progress",
-           "callEvery", "criticalTimeStep", "findEngine", "mpmEngines"]
+__all__ = ["MpmEngine", "EigenErosion", "kappaRange", "VelocityBC", "ElasticMaterial", "VTKRecorder",
+           "PlotRecorder", "Progress", "callEvery", "criticalTimeStep", "findEngine", "mpmEngines"]
