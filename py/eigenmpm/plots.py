@@ -29,10 +29,23 @@ def damageMap(mpm, path, title=None, scale=1e3, unit="mm"):
     span = np.maximum(hi - lo, 1e-30)
     width = 7.0
     fig, ax = plt.subplots(figsize=(width, max(2.0, min(12.0, width * span[1] / span[0]))))
-    size = max(0.05, 2.0e4 / max(len(x), 1))
     intact = d > 0
-    ax.scatter(x[intact, 0], x[intact, 1], s=size, c="#1f4e9c", marker="s", linewidths=0, label="intact")
-    ax.scatter(x[~intact, 0], x[~intact, 1], s=3 * size, c="#d62728", marker="s", linewidths=0, label="eroded")
+    if len(x) <= 30000:
+        size = max(0.3, 2.0e4 / max(len(x), 1))
+        ax.scatter(x[intact, 0], x[intact, 1], s=size, c="#1f4e9c", marker="s", linewidths=0, label="intact")
+        ax.scatter(x[~intact, 0], x[~intact, 1], s=3 * size, c="#d62728", marker="s", linewidths=0,
+                   label="eroded")
+    else:
+        # Many points: a raster of about one pixel per point spacing (eroded wins in a pixel).
+        from matplotlib.colors import ListedColormap
+        spacing = np.sqrt(span[0] * span[1] / len(x))
+        nx, ny = (int(min(2000, max(10, v / spacing))) for v in span[:2])
+        rng = [[lo[0], hi[0]], [lo[1], hi[1]]]
+        full, _, _ = np.histogram2d(x[:, 0], x[:, 1], bins=(nx, ny), range=rng)
+        broken, _, _ = np.histogram2d(x[~intact, 0], x[~intact, 1], bins=(nx, ny), range=rng)
+        img = np.where(broken > 0, 2, np.where(full > 0, 1, 0)).T
+        ax.imshow(img, origin="lower", extent=(lo[0], hi[0], lo[1], hi[1]), interpolation="nearest",
+                  cmap=ListedColormap(["white", "#1f4e9c", "#d62728"]), vmin=0, vmax=2)
     for c in range(mpm.solver.numCracks):
         v = np.array([list(p) for p in mpm.solver.crackVertices(c)]) * scale
         ax.plot(np.append(v[:, 0], v[0, 0]) if mpm.dim == 3 else v[:, 0],
