@@ -32,7 +32,7 @@ from yade import O, pack, plot
 
 import eigenmpm as em
 from eigenmpm import plots
-from eigenmpm.cli import scriptArgs
+from eigenmpm.cli import runSteps, scriptArgs
 
 DEFAULTS = dict(h_mm=0.25, kappaOverH=1.1, alpha=2.0, endTime_us=80.0, dt_us=0.01, phantom=1.0, notchWidthOverH=2.0,
                 vtkPeriod_us=10.0, E=72e9, nu=0.22, rho=2440.0, Gc=135.0, traction_MPa=12.0)
@@ -74,13 +74,8 @@ def main(argv):
     O.engines = [mpm, crack, em.PlotRecorder(iterPeriod=crack.iterPeriod), vtk,
                  em.Progress(endIter=steps, realPeriod=20)]
     start = time.time()
-    stopped = None
-    try:
-        O.run(steps, True)
-    except RuntimeError as err:  # keep what was computed: summary and figures up to the stop
-        stopped = str(err).split("ERROR:")[-1].split("STACK TRACE:")[0].strip()
-        print("run stopped early:", stopped)
-        steps = mpm.solver.steps
+    stopped = runSteps(steps)  # on an error: summary and figures up to the stop
+    steps = mpm.solver.steps
     wall = time.time() - start
     n = mpm.solver.numPoints
     summary = dict(crack.summary())

@@ -75,7 +75,7 @@ from yade import O, pack, plot
 
 import eigenmpm as em
 from eigenmpm import plots
-from eigenmpm.cli import scriptArgs
+from eigenmpm.cli import runSteps, scriptArgs
 from eigenmpm.fracture import linked
 
 DEFAULTS = dict(gamma=0.5, h_mm=0.635, kappaOverH=1.15, alpha=2.0, endTime_us=4000.0, dt_us=0.1,
@@ -187,9 +187,9 @@ def main(argv):
     O.engines = [mpm, crack, em.PlotRecorder(iterPeriod=crack.iterPeriod),
                  em.callEvery(watch, iterPeriod=crack.iterPeriod), vtk, em.Progress(endIter=steps, realPeriod=20)]
     start = time.time()
-    O.run(steps, True)
+    stopped = runSteps(steps)  # on an error: summary and figures up to the stop
     wall = time.time() - start
-    steps = O.iter
+    steps = mpm.solver.steps
     if O.iter % vtk.iterPeriod:
         vtk.write(mpm)  # the final state
     n = mpm.solver.numPoints
@@ -204,6 +204,7 @@ def main(argv):
                    critical_dt_s=mpm.criticalTimeStep(),
                    max_point_speed_m_s=float(np.max(np.linalg.norm(mpm.solver.velocities(), axis=1))),
                    parameters=o, quick=quick)
+    summary["stopped_early"] = stopped
     with open(os.path.join(out, "summary.json"), "w") as f:
         json.dump(summary, f, indent=2)
     plots.damageMap(mpm, os.path.join(out, "damage.png"),

@@ -32,7 +32,7 @@ from yade import O, pack, plot
 
 import eigenmpm as em
 from eigenmpm import plots
-from eigenmpm.cli import scriptArgs
+from eigenmpm.cli import runSteps, scriptArgs
 
 DEFAULTS = dict(h_mm=5.0, alpha=1.5, kappaOverH=1.1, velocity_m_s=0.01, endDisplacement_mm=0.5,
                 dtFraction=0.8, loadWidth_mm=0.0, E=25.85e9, nu=0.18, rho=2500.0, Gc=89.0)
@@ -78,7 +78,8 @@ def main(argv):
                  em.VTKRecorder(fileName=os.path.join(out, "vtk", "panel-"), iterPeriod=max(1, steps // 20)),
                  em.Progress(endIter=steps, realPeriod=30)]
     start = time.time()
-    O.run(steps, True)
+    stopped = runSteps(steps)  # on an error: summary and figures up to the stop
+    steps = mpm.solver.steps
     wall = time.time() - start
     u = np.array([c[0] for c in curve])
     F = np.array([c[1] for c in curve])
@@ -90,7 +91,7 @@ def main(argv):
     n = mpm.solver.numPoints
     summary = dict(peak_load_kN=float(Fs[ip]) / 1e3, displacement_at_peak_mm=float(u[ip]) * 1e3,
                    peak_load_raw_kN=float(np.max(F)) / 1e3, particles=n, steps=steps, wall_time_s=wall,
-                   particle_steps_per_s=n * steps / wall, dt_s=O.dt, parameters=o, quick=quick)
+                   particle_steps_per_s=n * steps / wall, dt_s=O.dt, parameters=o, quick=quick, stopped_early=stopped)
     summary.update({k: v for k, v in crack.summary().items() if k != "crack_tips_m"})
     with open(os.path.join(out, "summary.json"), "w") as f:
         json.dump(summary, f, indent=2)

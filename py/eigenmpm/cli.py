@@ -73,3 +73,17 @@ def _tag(O, key, default):
         return O.tags[key]
     except KeyError:
         return default
+
+
+def runSteps(steps):
+    """O.run(steps, True) that keeps what was computed when the solver stops the run with an
+    error (a point leaving the grid, a non-finite value): it prints the message and returns it,
+    so the example can still write its summary and figures. Returns None after a normal run."""
+    from yade import O
+    try:
+        O.run(steps, True)
+    except RuntimeError as err:
+        message = str(err).split("ERROR:")[-1].split("STACK TRACE:")[0].strip()
+        print("run stopped early:", message, flush=True)
+        return message
+    return None
