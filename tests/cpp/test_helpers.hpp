@@ -17,6 +17,15 @@ namespace emptest {
 using emp::Mat;
 using emp::Vec;
 
+/// A (dimension, shape function) pair for typed tests, and the four the solver is built for.
+template <int D_, class K_> struct Config {
+    static constexpr int D = D_;
+    using K = K_;
+    using S = emp::Solver<D_, K_>;
+};
+using AllSolvers = ::testing::Types<Config<2, emp::LinearKernel>, Config<2, emp::GimpKernel>,
+                                    Config<3, emp::LinearKernel>, Config<3, emp::GimpKernel>>;
+
 /// Pads a D-vector to the 3-vector the Solver interface takes.
 template <int D> Eigen::Vector3d to3(const Vec<D>& v)
 {

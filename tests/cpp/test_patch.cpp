@@ -14,14 +14,9 @@ using emptest::Mat;
 using emptest::to3;
 using emptest::Vec;
 
-template <int D_, class K_> struct Config {
-    static constexpr int D = D_;
-    using K = K_;
-    using S = Solver<D_, K_>;
-};
+using emptest::Config;
 template <class C> struct PatchTest : ::testing::Test {};
-using Configs = ::testing::Types<Config<2, LinearKernel>, Config<2, GimpKernel>, Config<3, LinearKernel>,
-                                 Config<3, GimpKernel>>;
+using Configs = emptest::AllSolvers;
 TYPED_TEST_SUITE(PatchTest, Configs);
 
 constexpr double kE = 2e9, kRho = 2000, kH = 0.05;

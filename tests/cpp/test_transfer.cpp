@@ -12,14 +12,9 @@ using emptest::Mat;
 using emptest::to3;
 using emptest::Vec;
 
-template <int D_, class K_> struct Config {
-    static constexpr int D = D_;
-    using K = K_;
-    using S = Solver<D_, K_>;
-};
+using emptest::Config;
 template <class C> struct TransferTest : ::testing::Test {};
-using Configs = ::testing::Types<Config<2, LinearKernel>, Config<2, GimpKernel>, Config<3, LinearKernel>,
-                                 Config<3, GimpKernel>>;
+using Configs = emptest::AllSolvers;
 TYPED_TEST_SUITE(TransferTest, Configs);
 
 constexpr double kE = 1e6, kNu = 0.3, kRho = 1000, kH = 0.1;
