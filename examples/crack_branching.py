@@ -16,10 +16,12 @@ Run::
     yade -n -x examples/crack_branching.py [--quick] [--out DIR] [param=value ...]
     yade-batch table.txt examples/crack_branching.py      # a column per parameter (and quick)
 
-with params h_mm, kappaOverH, alpha, endTime_us, dt_us, phantom, notchWidthOverH, vtkPeriod_us. Writes
+with params h_mm, ppc, shape, kappaOverH, alpha, endTime_us, dt_us, dtFraction (if > 0: the time step
+as this fraction of the critical step, instead of dt_us), phantom, notchWidthOverH, vtkPeriod_us. Writes
 DIR/summary.json (initiation_time_us, max_tip_speed_m_s, dissipated_energy_J, particles,
 steps, wall_time_s, particle_steps_per_s, ...), DIR/damage.png, DIR/energy.png,
-DIR/tip_speed.png and a VTK series DIR/vtk/plate-*.vtp. --quick: h = 1 mm, 40 us.
+DIR/tip_speed.png, DIR/eroded.csv (positions of the eroded points at the end, mm) and a VTK
+series DIR/vtk/plate-*.vtp. --quick: h = 1 mm, 40 us.
 """
 import json
 import math
@@ -34,8 +36,9 @@ import eigenmpm as em
 from eigenmpm import plots
 from eigenmpm.cli import runSteps, scriptArgs
 
-DEFAULTS = dict(h_mm=0.25, kappaOverH=1.1, alpha=2.0, endTime_us=80.0, dt_us=0.01, phantom=1.0, notchWidthOverH=2.0,
-                vtkPeriod_us=10.0, E=72e9, nu=0.22, rho=2440.0, Gc=135.0, traction_MPa=12.0)
+DEFAULTS = dict(h_mm=0.25, ppc=2, shape="uGIMP", kappaOverH=1.1, alpha=2.0, endTime_us=80.0, dt_us=0.01,
+                dtFraction=0.0, phantom=1.0, notchWidthOverH=2.0, vtkPeriod_us=10.0, E=72e9, nu=0.22, rho=2440.0,
+                Gc=135.0, traction_MPa=12.0)
 QUICK = dict(h_mm=1.0, endTime_us=40.0, dt_us=0.04)
 
 
@@ -47,7 +50,7 @@ def build(o):
         notch = 0.5 * o["notchWidthOverH"] * h
         plate = plate - pack.inAlignedBox((-1, 0.5 * W - notch, -1), (0.5 * L, 0.5 * W + notch, 1))
     # The grid leaves 5 mm around the plate: after cut-through the halves fly apart.
-    mpm = em.MpmEngine(dim=2, h=h, ppc=2, thickness=h, label="plate",
+    mpm = em.MpmEngine(dim=2, h=h, ppc=o["ppc"], shape=o["shape"], thickness=h, label="plate",
                        domain=((-0.005, -0.005, 0), (L + 0.005, W + 0.005, 0)))
     glass = em.ElasticMaterial(E=o["E"], nu=o["nu"], rho=o["rho"], planeStress=True)
     mpm.fill(plate, glass)
@@ -67,6 +70,9 @@ def main(argv):
     O.reset()
     plot.reset()
     mpm, crack = build(o)
+    if o["dtFraction"] > 0:  # the time step as a fraction of the critical one, instead of dt_us
+        o["dt_us"] = o["dtFraction"] * mpm.criticalTimeStep() * 1e6
+        crack.iterPeriod = max(1, int(round(0.1 / o["dt_us"])))
     O.dt = o["dt_us"] * 1e-6
     steps = int(round(o["endTime_us"] / o["dt_us"]))
     vtk = em.VTKRecorder(fileName=os.path.join(out, "vtk", "plate-"),
@@ -86,6 +92,9 @@ def main(argv):
                    parameters=o, quick=quick, stopped_early=stopped)
     with open(os.path.join(out, "summary.json"), "w") as f:
         json.dump(summary, f, indent=2)
+    eroded = mpm.solver.positions()[mpm.solver.damage() <= 0]
+    np.savetxt(os.path.join(out, "eroded.csv"), 1e3 * eroded[:, :2], fmt="%.6g", delimiter=",",
+               header="x_mm,y_mm", comments="")
     plots.damageMap(mpm, os.path.join(out, "damage.png"))
     t = np.array(plot.data["t"])
     plots.series(os.path.join(out, "energy.png"), t, {"elastic (Eq 32)": plot.data["plate_Ee"],

@@ -16,8 +16,9 @@ Run::
     yade -n -x examples/lshaped_panel.py [--quick] [--out DIR] [param=value ...]
     yade-batch table.txt examples/lshaped_panel.py        # a column per parameter (and quick)
 
-params: h_mm, alpha, kappaOverH, velocity_m_s, endDisplacement_mm, dtFraction, loadWidth_mm.
+params: h_mm, ppc, shape, alpha, kappaOverH, velocity_m_s, endDisplacement_mm, dtFraction, loadWidth_mm.
 Writes DIR/summary.json (peak_load_kN, displacement_at_peak_mm, ...), DIR/load_displacement.csv,
+DIR/eroded.csv (positions of the eroded points at the end, mm),
 DIR/load_displacement.png (with the experimental band), DIR/damage.png and DIR/vtk/.
 --quick: h = 10 mm.
 """
@@ -34,8 +35,8 @@ import eigenmpm as em
 from eigenmpm import plots
 from eigenmpm.cli import runSteps, scriptArgs
 
-DEFAULTS = dict(h_mm=5.0, alpha=1.5, kappaOverH=1.1, velocity_m_s=0.01, endDisplacement_mm=0.5,
-                dtFraction=0.8, loadWidth_mm=0.0, E=25.85e9, nu=0.18, rho=2500.0, Gc=89.0)
+DEFAULTS = dict(h_mm=5.0, ppc=2, shape="uGIMP", alpha=1.5, kappaOverH=1.1, velocity_m_s=0.01,
+                endDisplacement_mm=0.5, dtFraction=0.8, loadWidth_mm=0.0, E=25.85e9, nu=0.18, rho=2500.0, Gc=89.0)
 QUICK = dict(h_mm=10.0)
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(sys.argv[0])))
 
@@ -59,7 +60,7 @@ def main(argv):
     h = o["h_mm"] * 1e-3
     a = 0.25
     panel = pack.inAlignedBox((0, 0, 0), (2 * a, 2 * a, 0)) - pack.inAlignedBox((a, -1, -1), (1, a, 1))
-    mpm = em.MpmEngine(dim=2, h=h, ppc=2, thickness=0.1, label="panel")
+    mpm = em.MpmEngine(dim=2, h=h, ppc=o["ppc"], shape=o["shape"], thickness=0.1, label="panel")
     concrete = em.ElasticMaterial(E=o["E"], nu=o["nu"], rho=o["rho"], planeStress=True)
     mpm.fill(panel, concrete)
     mpm.fix(points=pack.inAlignedBox((-1, -1, -1), (a, 0.5 * h, 1)), label="base")
@@ -99,6 +100,9 @@ def main(argv):
         f.write("displacement_mm,load_kN,load_smoothed_kN\n")
         for ui, Fi, Si in zip(u, F, Fs):
             f.write(f"{ui * 1e3:.6g},{Fi / 1e3:.6g},{Si / 1e3:.6g}\n")
+    eroded = mpm.solver.positions()[mpm.solver.damage() <= 0]
+    np.savetxt(os.path.join(out, "eroded.csv"), 1e3 * eroded[:, :2], fmt="%.6g", delimiter=",",
+               header="x_mm,y_mm", comments="")
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
