@@ -1,0 +1,573 @@
+"""Speed/accuracy study: one example scene run across chosen knobs, each configuration in its
+own YADE process, with its cost, its error against a reference, a table and a Pareto plot.
+
+Run from the repository root (the study needs no YADE itself, only its runs do)::
+
+    yade -n -x examples/study.py SCENE knob=v1,v2,... [knob=v ...] [--out DIR]
+        [--reference finest|closed-form|RUN_DIR] [--cost cpu|loop|psteps] [--quick] [--rerun]
+        [--timeout S] [--dry-run]
+    /usr/bin/python3.11 py/eigenmpm/study.py ...       # the same
+
+SCENE: ``vibrating_bar`` (or ``bar``), ``lshaped_panel`` (``lpanel``), ``crack_branching``
+(``branching``). Knobs: the generic ``h`` (cell size, mm), ``ppc``, ``shape`` (linear or
+uGIMP), ``kappaOverH``, ``alpha``, ``dtFraction`` (time step / critical step), where the
+scene has them, and any parameter of the example script under its own name (``cells``,
+``velocity_m_s``, ``endTime_us``, ...). A knob with several values is swept; every combination
+of the swept values is run (full factorial). ``--quick`` passes the script's quick mode.
+
+Each run is ``yade -n -x SCRIPT --out DIR/runs/run_NNN [--quick] name=value ...``. Its cost is
+the CPU time (user + system) of that process, start-up included, taken from the kernel's
+account of the finished child: the primary cost measure, because the machine may be shared
+and wall time then depends on the other jobs. Wall time and the script's own particle-steps/s
+(time-stepping loop only) are recorded too. ``--cost loop`` (the loop's wall time) or ``--cost
+psteps`` (points x steps, machine-independent) rank and plot by those instead.
+
+Errors (relative, dimensionless) against the reference:
+
+- vibrating_bar: ``freq`` = |omega - omega_ref| / omega_ref, the first-mode angular frequency;
+  omega_ref is the closed form (``--reference closed-form``, default) or the reference run's.
+- lshaped_panel: ``peak`` = relative error of the peak load (smoothed, as in the summary);
+  ``path`` = the crack path distance: the symmetric mean nearest-neighbour distance between
+  the eroded points of the run and those of the reference (mean over the run's points of the
+  distance to the nearest reference point and vice versa, averaged), divided by the length of
+  the reference crack (its front distance from the re-entrant corner).
+- crack_branching: ``branch`` = relative error of the branching time; ``energy`` = relative
+  error of the dissipated energy per unit thickness (the script's plate is h thick, so its
+  energies in J scale with h; they are divided by h before comparing). A run that never
+  branches has no branching error (NaN, shown as "no branching").
+
+``error`` is the largest of a scene's errors. ``finest`` is the successful run with the most
+particle-steps (points x steps), which is the finest when the sweep refines h, ppc or dt;
+RUN_DIR is any directory with a summary.json (and eroded.csv for the L-panel), e.g. a finer
+run made separately. The reference run itself is left out of the plot (its error is 0).
+
+Writes DIR/study.csv, DIR/study.md (table, Pareto front, the cheapest run within 1 %, 5 %,
+20 %), DIR/study.json and DIR/pareto.png (error against CPU time, log axes, one panel per
+error, the Pareto front highlighted). Default DIR: out/study/SCENE. Runs already made with
+the same command line are reused (their run.json) unless --rerun.
+"""
+import csv
+import itertools
+import json
+import math
+import os
+import resource
+import subprocess
+import sys
+import time
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.realpath(__file__))))
+SHAPES = ("linear", "uGIMP")
+GENERIC = ("h", "ppc", "shape", "kappaOverH", "alpha", "dtFraction")
+TARGETS = (0.01, 0.05, 0.2)
+COSTS = {"cpu": ("cpu_s", "CPU time per run (s)"),
+         "loop": ("loop_wall_s", "wall time of the time-stepping loop (s)"),
+         "psteps": ("particle_steps", "particle-steps (points x steps)")}
+
+
+class StudyError(ValueError):
+    """A bad scene, knob, value or option (the message names it and what is allowed)."""
+
+
+# --- scenes ---------------------------------------------------------------------------------
+def _barH(h_mm):
+    cells = 1000.0 / h_mm  # the bar is L = 1 m long
+    if abs(cells - round(cells)) > 1e-6 * cells or round(cells) < 1:
+        raise StudyError(f"knob h = {h_mm:g} mm does not divide the bar length 1000 mm; allowed: 1000/N mm "
+                         f"(N cells, e.g. 50, 25, 12.5)")
+    return "cells", int(round(cells))
+
+
+SCENES = {
+    "vibrating_bar": dict(script="examples/verification/vibrating_bar.py", fixed=["plot=0"],
+                          knobs={"h": _barH, "ppc": "ppc", "shape": "shape", "dtFraction": "dtFraction"},
+                          errors=("freq",), reference="closed-form"),
+    "lshaped_panel": dict(script="examples/lshaped_panel.py", fixed=[],
+                          knobs={"h": "h_mm", "ppc": "ppc", "shape": "shape", "kappaOverH": "kappaOverH",
+                                 "alpha": "alpha", "dtFraction": "dtFraction"},
+                          errors=("peak", "path"), reference="finest"),
+    "crack_branching": dict(script="examples/crack_branching.py", fixed=[],
+                            knobs={"h": "h_mm", "ppc": "ppc", "shape": "shape", "kappaOverH": "kappaOverH",
+                                   "alpha": "alpha", "dtFraction": "dtFraction"},
+                            errors=("branch", "energy"), reference="finest"),
+}
+ALIASES = {"bar": "vibrating_bar", "lpanel": "lshaped_panel", "branching": "crack_branching"}
+ERROR_LABELS = {"freq": "first-mode frequency", "peak": "peak load", "path": "crack path",
+                "branch": "branching time", "energy": "dissipated energy per thickness"}
+
+
+def scene(name):
+    """The canonical scene name for `name` (or an alias)."""
+    key = ALIASES.get(name, name)
+    if key not in SCENES:
+        raise StudyError(f"unknown scene {name!r}; allowed: {', '.join(SCENES)} "
+                         f"(or {', '.join(f'{a} = {b}' for a, b in ALIASES.items())})")
+    return key
+
+
+def scriptDefaults(script):
+    """The DEFAULTS dict of an example script, read from its source (no YADE needed)."""
+    import ast
+    tree = ast.parse(open(os.path.join(ROOT, script)).read())
+    for node in tree.body:
+        if (isinstance(node, ast.Assign) and any(getattr(t, "id", None) == "DEFAULTS" for t in node.targets)
+                and isinstance(node.value, ast.Call)):
+            return {k.arg: ast.literal_eval(k.value) for k in node.value.keywords}
+    raise StudyError(f"{script} has no DEFAULTS = dict(...)")
+
+
+def convert(sceneName, knob, text):
+    """(script parameter, value) for `knob` = `text` in the scene; StudyError naming the knob and
+    the allowed values when either is bad."""
+    sc = SCENES[sceneName]
+    defaults = scriptDefaults(sc["script"])
+    target = sc["knobs"].get(knob, knob if knob in defaults else None)
+    if target is None:
+        generic = [k for k in GENERIC if k in sc["knobs"]]
+        missing = [k for k in GENERIC if k not in sc["knobs"]]
+        raise StudyError(f"unknown knob {knob!r} for {sceneName}; allowed: {', '.join(generic)}"
+                         + (f" (not {', '.join(missing)}: the scene has no fracture)" if missing else "")
+                         + f", or a parameter of {sc['script']}: {', '.join(sorted(defaults))}")
+    if knob == "shape" or target == "shape":
+        match = [s for s in SHAPES if s.lower() == text.strip().lower()]
+        if not match:
+            raise StudyError(f"knob shape = {text!r} is invalid; allowed: {' or '.join(SHAPES)}")
+        return "shape", match[0]
+    try:
+        value = float(text)
+    except ValueError:
+        raise StudyError(f"knob {knob} = {text!r} is not a number; allowed: " + _allowed(knob)) from None
+    if not math.isfinite(value) or not _ok(knob, value):
+        raise StudyError(f"knob {knob} = {text!r} is invalid; allowed: " + _allowed(knob))
+    if callable(target):
+        return target(value)
+    default = defaults[target]
+    if isinstance(default, bool):
+        return target, int(value != 0)
+    if isinstance(default, int):
+        if value != int(value):
+            raise StudyError(f"knob {knob} = {text!r} is not an integer; allowed: " + _allowed(knob))
+        return target, int(value)
+    return target, value
+
+
+def _ok(knob, v):
+    if knob == "ppc":
+        return v >= 1 and v == int(v)
+    if knob == "dtFraction":
+        return 0 < v <= 1
+    if knob in ("h", "kappaOverH", "alpha"):
+        return v > 0
+    return True
+
+
+def _allowed(knob):
+    return {"ppc": "an integer >= 1", "dtFraction": "0 < dtFraction <= 1 (of the critical step)",
+            "h": "h > 0 (mm)", "kappaOverH": "kappaOverH > 0", "alpha": "alpha > 0"}.get(knob, "a number")
+
+
+def configurations(sceneName, knobArgs):
+    """The runs of a sweep: a list of (config, args) with config the knob values as given (in
+    the order given) and args the script's name=value arguments. knobArgs: ["knob=v1,v2", ...]."""
+    sweep = []
+    for a in knobArgs:
+        knob, _, values = a.partition("=")
+        texts = [v for v in values.split(",") if v.strip()]
+        if not knob or not texts:
+            raise StudyError(f"bad knob argument {a!r}; usage: knob=v1,v2,...")
+        if knob in [k for k, _ in sweep]:
+            raise StudyError(f"knob {knob} given twice")
+        sweep.append((knob, [(t.strip(), convert(sceneName, knob, t.strip())) for t in texts]))
+    runs = []
+    for combo in itertools.product(*[vals for _, vals in sweep]):
+        config = {k: t for (k, _), (t, _) in zip(sweep, combo)}
+        args = [f"{p}={v}" for _, (p, v) in combo]
+        runs.append((config, args))
+    return runs
+
+
+# --- running --------------------------------------------------------------------------------
+def runOne(script, outDir, args, quick=False, timeout=None, rerun=False, yade="yade"):
+    """Runs one configuration in its own YADE process; returns its record (cmd, returncode,
+    cpu_s, wall_s, load_avg, summary). Reuses outDir/run.json made by the same command."""
+    cmd = [yade, "-n", "-x", os.path.join(ROOT, script), "--out", outDir] + (["--quick"] if quick else []) + args
+    record = os.path.join(outDir, "run.json")
+    if not rerun and os.path.exists(record):
+        with open(record) as f:
+            old = json.load(f)
+        if old.get("cmd") == cmd and old.get("returncode") == 0:
+            old["reused"] = True
+            return old
+    os.makedirs(outDir, exist_ok=True)
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join(filter(None, [os.path.join(ROOT, "build", "python"), env.get("PYTHONPATH")]))
+    load = os.getloadavg()[0]
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    start = time.perf_counter()
+    try:
+        res = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=timeout,
+                             stdin=subprocess.DEVNULL)
+        code, log = res.returncode, res.stdout + res.stderr
+    except subprocess.TimeoutExpired as e:
+        code, log = "timeout", f"timed out after {timeout} s\n{e.stdout or ''}"
+    wall = time.perf_counter() - start
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    with open(os.path.join(outDir, "log.txt"), "w") as f:
+        f.write(log if isinstance(log, str) else log.decode(errors="replace"))
+    summary = None
+    path = os.path.join(outDir, "summary.json")
+    if code == 0 and os.path.exists(path):
+        with open(path) as f:
+            summary = json.load(f)
+    out = dict(cmd=cmd, returncode=code, cpu_s=cpu, wall_s=wall, load_avg=load, summary=summary, reused=False)
+    with open(record, "w") as f:
+        json.dump(out, f, indent=2)
+    return out
+
+
+# --- errors ---------------------------------------------------------------------------------
+def readPoints(runDir):
+    """The eroded points (n x 2, mm) a run wrote to eroded.csv, or None."""
+    import numpy as np
+    path = os.path.join(runDir, "eroded.csv")
+    if not os.path.exists(path):
+        return None
+    return np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2).reshape(-1, 2)
+
+
+def pathDistance(a, b):
+    """Symmetric mean nearest-neighbour distance between point sets a and b (n x 2): the mean,
+    over a's points, of the distance to the nearest point of b, averaged with the same from b to
+    a. NaN when either set is empty."""
+    import numpy as np
+    from scipy.spatial import cKDTree
+    if a is None or b is None or len(a) == 0 or len(b) == 0:
+        return float("nan")
+    dab = cKDTree(b).query(a)[0]
+    dba = cKDTree(a).query(b)[0]
+    return 0.5 * (float(np.mean(dab)) + float(np.mean(dba)))
+
+
+def _rel(x, ref):
+    if x is None or ref is None or not ref:
+        return float("nan")
+    return abs(x - ref) / abs(ref)
+
+
+def errors(sceneName, summary, runDir, ref, refDir):
+    """The scene's relative errors of one run (dict name -> value) against the reference: a
+    summary dict, or the string 'closed-form' (vibrating bar)."""
+    if sceneName == "vibrating_bar":
+        target = summary["omega_analytic"] if ref == "closed-form" else ref["omega_numeric"]
+        return {"freq": _rel(summary["omega_numeric"], target)}
+    if sceneName == "lshaped_panel":
+        length = 1e3 * ref.get("crack_front_distance_m", 0.0)
+        d = pathDistance(readPoints(runDir), readPoints(refDir))
+        return {"peak": _rel(summary["peak_load_kN"], ref["peak_load_kN"]),
+                "path": d / length if length > 0 else float("nan"), "path_mm": d}
+    if sceneName == "crack_branching":
+        def perThickness(s):
+            return s["dissipated_energy_J"] / (1e-3 * s["parameters"]["h_mm"])
+        return {"branch": _rel(summary.get("branching_time_us"), ref.get("branching_time_us")),
+                "energy": _rel(perThickness(summary), perThickness(ref))}
+    raise StudyError(f"no error measure for scene {sceneName}")
+
+
+def paretoFront(costs, errs):
+    """Boolean list: True where the point is not dominated, i.e. no other point has cost <= and
+    error <= with at least one of them strictly smaller. NaN points are never on the front."""
+    pts = list(zip(costs, errs))
+    front = []
+    for i, (c, e) in enumerate(pts):
+        if not (math.isfinite(c) and math.isfinite(e)):
+            front.append(False)
+            continue
+        front.append(not any(math.isfinite(c2) and math.isfinite(e2) and c2 <= c and e2 <= e and (c2 < c or e2 < e)
+                             for j, (c2, e2) in enumerate(pts) if j != i))
+    return front
+
+
+def recommend(rows, targets=TARGETS, key="error"):
+    """For each target error, the cheapest row (by its cost) with rows[key] <= target (or None)."""
+    out = {}
+    for t in targets:
+        ok = [r for r in rows if r.get(key) is not None and math.isfinite(r[key]) and r[key] <= t]
+        out[t] = min(ok, key=lambda r: r["cost"]) if ok else None
+    return out
+
+
+# --- the study ------------------------------------------------------------------------------
+def study(sceneName, knobArgs, out=None, reference=None, quick=False, rerun=False, timeout=None,
+          dryRun=False, cost="cpu", log=print, command=None):
+    """Runs the sweep and writes its table and plot; returns the rows (list of dicts)."""
+    sceneName = scene(sceneName)
+    sc = SCENES[sceneName]
+    reference = reference or sc["reference"]
+    if reference == "closed-form" and sceneName != "vibrating_bar":
+        raise StudyError(f"--reference closed-form exists only for vibrating_bar; allowed for {sceneName}: "
+                         f"finest or a run directory")
+    if reference not in ("finest", "closed-form") and not os.path.exists(os.path.join(reference, "summary.json")):
+        raise StudyError(f"--reference {reference!r}: allowed: finest, closed-form (vibrating_bar) or a "
+                         f"directory with a summary.json")
+    if cost not in COSTS:
+        raise StudyError(f"--cost {cost!r} is invalid; allowed: {', '.join(COSTS)}")
+    configs = configurations(sceneName, knobArgs)
+    out = out or os.path.join("out", "study", sceneName)
+    knobs = list(configs[0][0]) if configs else []
+    rows = []
+    for i, (config, args) in enumerate(configs):
+        runDir = os.path.join(out, "runs", f"run_{i:03d}")
+        if dryRun:
+            log(" ".join(["yade", "-n", "-x", sc["script"], "--out", runDir] + (["--quick"] if quick else [])
+                         + sc["fixed"] + args))
+            continue
+        rec = runOne(sc["script"], runDir, sc["fixed"] + args, quick=quick, timeout=timeout, rerun=rerun)
+        s = rec["summary"] or {}
+        params = s.get("parameters", {})
+        dt = s["dt_s"] * 1e6 if "dt_s" in s else params.get("dt_us")
+        h = s["h_m"] * 1e3 if "h_m" in s else params.get("h_mm")
+        rows.append(dict(run=f"run_{i:03d}", dir=runDir, config=config, status=_status(rec, s),
+                         h_mm=h, dt_us=dt, particles=s.get("particles"), steps=s.get("steps"),
+                         cpu_s=rec["cpu_s"], wall_s=rec["wall_s"], loop_wall_s=s.get("wall_time_s"),
+                         particle_steps_per_s=s.get("particle_steps_per_s"), load_avg=rec["load_avg"],
+                         particle_steps=(s.get("particles") or 0) * (s.get("steps") or 0), summary=s))
+        rows[-1]["cost"] = rows[-1][COSTS[cost][0]] or float("nan")
+        log(f"{rows[-1]['run']} {config}: {rows[-1]['status']}, CPU {rec['cpu_s']:.1f} s, wall {rec['wall_s']:.1f} s"
+            + (" (reused)" if rec.get("reused") else ""))
+    if dryRun:
+        return []
+    good = [r for r in rows if r["status"] == "ok"]
+    if not good:
+        raise StudyError("no run succeeded; see the runs' log.txt")
+    if reference == "finest":
+        refRow = max(good, key=lambda r: r["particle_steps"])
+        ref, refDir, refName = refRow["summary"], refRow["dir"], f"finest run of the sweep, {refRow['run']} {refRow['config']}"
+    elif reference == "closed-form":
+        refRow, ref, refDir, refName = None, "closed-form", None, "closed form"
+    else:
+        with open(os.path.join(reference, "summary.json")) as f:
+            refRow, ref, refDir, refName = None, json.load(f), reference, f"run in {reference}"
+    for r in rows:
+        r["reference"] = r is refRow
+        errs = errors(sceneName, r["summary"], r["dir"], ref, refDir) if r["status"] == "ok" else {}
+        r["errors"] = errs
+        vals = [errs.get(k, float("nan")) for k in sc["errors"]]
+        r["error"] = max(vals) if all(math.isfinite(v) for v in vals) else float("nan")
+    candidates = [r for r in rows if not r["reference"]]
+    for name in list(sc["errors"]) + ["error"]:
+        flags = paretoFront([r["cost"] for r in candidates],
+                            [(r["error"] if name == "error" else r["errors"].get(name, float("nan"))) for r in candidates])
+        for r, f in zip(candidates, flags):
+            r.setdefault("pareto", {})[name] = f
+    for r in rows:
+        r.setdefault("pareto", {})
+    os.makedirs(out, exist_ok=True)
+    meta = dict(scene=sceneName, script=sc["script"], reference=refName, knobs=knobs, quick=quick,
+                errors=list(sc["errors"]), command=command, cost=cost)
+    writeTables(out, meta, rows)
+    plot(os.path.join(out, "pareto.png"), meta, rows)
+    with open(os.path.join(out, "study.json"), "w") as f:
+        json.dump(dict(meta, rows=rows), f, indent=2, default=str)
+    log(f"wrote {out}/study.csv, study.md, study.json, pareto.png")
+    return rows
+
+
+def _status(rec, s):
+    if rec["returncode"] != 0:
+        return f"failed ({rec['returncode']})"
+    if not s:
+        return "no summary"
+    if s.get("stopped_early"):
+        return "stopped early"
+    return "ok"
+
+
+def _fmt(v, pct=False):
+    if v is None:
+        return ""
+    if isinstance(v, float):
+        if not math.isfinite(v):
+            return "n/a"
+        return f"{100 * v:.3g}" if pct else f"{v:.4g}"
+    return str(v)
+
+
+def _columns(meta):
+    errs = meta["errors"]
+    cols = [("run", lambda r: r["run"])] + [(k, (lambda k: lambda r: r["config"].get(k))(k)) for k in meta["knobs"]]
+    cols += [("h_mm", lambda r: r["h_mm"]), ("dt_us", lambda r: r["dt_us"]), ("particles", lambda r: r["particles"]),
+             ("steps", lambda r: r["steps"]), ("cpu_s", lambda r: r["cpu_s"]), ("wall_s", lambda r: r["wall_s"]),
+             ("loop_wall_s", lambda r: r["loop_wall_s"]),
+             ("particle_steps_per_s", lambda r: r["particle_steps_per_s"])]
+    cols += [(f"err_{k}", (lambda k: lambda r: r["errors"].get(k))(k)) for k in errs]
+    if "path" in errs:
+        cols.append(("path_mm", lambda r: r["errors"].get("path_mm")))
+    cols += [("error", lambda r: r["error"]), ("pareto", lambda r: int(bool(r["pareto"].get("error")))),
+             ("reference", lambda r: int(r["reference"])), ("status", lambda r: r["status"]),
+             ("load_avg", lambda r: r["load_avg"])]
+    return cols
+
+
+def writeTables(out, meta, rows):
+    cols = _columns(meta)
+    with open(os.path.join(out, "study.csv"), "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow([c for c, _ in cols])
+        for r in rows:
+            w.writerow(["" if v is None else (f"{v:.6g}" if isinstance(v, float) else v) for v in (g(r) for _, g in cols)])
+    with open(os.path.join(out, "study.md"), "w") as f:
+        f.write(markdown(meta, rows))
+
+
+def markdown(meta, rows):
+    """The study as Markdown: what was run, the table (errors in %), front and recommendations."""
+    errs = meta["errors"]
+    head = ["run"] + meta["knobs"] + ["h (mm)", "dt (us)", "points", "steps", "CPU (s)", "wall (s)",
+                                      "loop Mpts/s"] + [f"{ERROR_LABELS[k]} err (%)" for k in errs]
+    if "path" in errs:
+        head.append("path dist (mm)")
+    head += ["error (%)", "front"]
+    lines = [f"Scene `{meta['scene']}` ({meta['script']}{', --quick' if meta['quick'] else ''}); "
+             f"reference: {meta['reference']}.", ""]
+    if meta.get("command"):
+        lines += [f"Command: `{meta['command']}`", ""]
+    lines += ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for r in rows:
+        pps = r["particle_steps_per_s"]
+        cells = [r["run"] + (" (ref)" if r["reference"] else "")] + [str(r["config"][k]) for k in meta["knobs"]]
+        cells += [_fmt(r["h_mm"]), _fmt(r["dt_us"]), _fmt(r["particles"]), _fmt(r["steps"]), f"{r['cpu_s']:.1f}",
+                  f"{r['wall_s']:.1f}", f"{pps / 1e6:.2f}" if pps else ""]
+        for k in errs:
+            v = r["errors"].get(k)
+            cells.append("no branching" if k == "branch" and r["status"] == "ok" and
+                         r["summary"].get("branching_time_us") is None else _fmt(v, pct=True))
+        if "path" in errs:
+            cells.append(_fmt(r["errors"].get("path_mm")))
+        cells += [_fmt(r["error"], pct=True) if not r["reference"] else "0 (ref)",
+                  "yes" if r["pareto"].get("error") else ""]
+        if r["status"] != "ok":
+            cells[-1] = r["status"]
+        lines.append("| " + " | ".join(cells) + " |")
+    lines += ["", "CPU: CPU time of the run's YADE process (start-up included). Loop Mpts/s: the script's "
+              "particle-steps per second of its time-stepping loop (wall time). error = the largest of the "
+              f"errors; front = on the Pareto front of error against {COSTS[meta.get('cost', 'cpu')][1]}.", ""]
+    for t, r in recommend([r for r in rows if not r["reference"]]).items():
+        lines.append(f"- error <= {100 * t:g} %: " + (f"{r['run']} {r['config']} ({_fmt(r['error'], True)} %, "
+                                                      f"{r['cpu_s']:.1f} s CPU)" if r else "no run of the sweep"))
+    if meta.get("cost", "cpu") != "cpu":
+        lines.append(f"- (cheapest by {COSTS[meta['cost']][1]}; front likewise)")
+    return "\n".join(lines) + "\n"
+
+
+def _ticks(axis, values):
+    """Plain-number labels on a log axis; minor ticks labelled too when it spans < 1.5 decades."""
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+    fmt = FuncFormatter(lambda v, _: f"{v:.3g}")
+    axis.set_major_formatter(fmt)
+    lo, hi = min(values), max(values)
+    if hi < 30 * lo:
+        axis.set_minor_locator(LogLocator(subs=(2, 3, 5)))
+        axis.set_minor_formatter(fmt)
+    else:
+        axis.set_minor_formatter(NullFormatter())
+
+
+def _label(r, knobs):
+    return " ".join(f"{k}={r['config'][k]}" for k in knobs) or r["run"]
+
+
+def plot(path, meta, rows):
+    """Error against CPU time (log axes), one panel per error measure; the Pareto front of each
+    panel drawn as a line through its points, the others grey."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    errs = meta["errors"]
+    varied = [k for k in meta["knobs"] if len({str(r["config"][k]) for r in rows}) > 1]
+    fig, axes = plt.subplots(1, len(errs), figsize=(5.2 * len(errs), 4.2), squeeze=False)
+    for ax, name in zip(axes[0], errs):
+        pts = [(r["cost"], r["errors"].get(name, float("nan")), r) for r in rows
+               if not r["reference"] and r["status"] == "ok"]
+        pts = [(c, e, r) for c, e, r in pts if math.isfinite(e) and e > 0]
+        if pts:
+            front = paretoFront([c for c, _, _ in pts], [e for _, e, _ in pts])
+            ax.scatter([c for c, _, _ in pts], [100 * e for _, e, _ in pts], c="0.6", s=22, label="runs", zorder=2)
+            fp = sorted((c, e) for (c, e, _), f in zip(pts, front) if f)
+            ax.plot([c for c, _ in fp], [100 * e for _, e in fp], "o-", color="#d62728", ms=6, lw=1.5,
+                    label="Pareto front", zorder=3)
+            for c, e, r in pts:
+                ax.annotate(_label(r, varied), (c, 100 * e), textcoords="offset points", xytext=(4, 3), fontsize=7)
+            ax.set_xscale("log")
+            ax.set_yscale("log")
+            _ticks(ax.xaxis, [c for c, _, _ in pts])
+            _ticks(ax.yaxis, [100 * e for _, e, _ in pts])
+            ax.margins(0.15)
+        else:
+            ax.text(0.5, 0.5, "no positive finite error", transform=ax.transAxes, ha="center")
+        ax.set_xlabel(COSTS[meta.get("cost", "cpu")][1])
+        ax.set_ylabel(f"{ERROR_LABELS[name]} error (%)")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.suptitle(f"{meta['scene']}: error against cost (reference: {meta['reference']})", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+    return path
+
+
+# --- command line ---------------------------------------------------------------------------
+USAGE = ("usage: study.py SCENE knob=v1,v2,... [knob=v ...] [--out DIR] [--reference finest|closed-form|RUN_DIR] "
+         "[--cost cpu|loop|psteps] [--quick] [--rerun] [--timeout S] [--dry-run]")
+
+
+def parse(argv):
+    """(scene, knobArgs, options dict) from the command line; StudyError on a bad one."""
+    argv = list(argv)
+    if not argv or argv[0].startswith("-"):
+        raise StudyError("no scene given; " + USAGE)
+    name, knobArgs, opts = scene(argv[0]), [], dict(out=None, reference=None, quick=False, rerun=False,
+                                                    timeout=None, dryRun=False, cost="cpu")
+    it = iter(argv[1:])
+    for a in it:
+        if a in ("--out", "--reference", "--timeout"):
+            try:
+                v = next(it)
+            except StopIteration:
+                raise StudyError(f"{a} needs a value; " + USAGE) from None
+            if a == "--timeout":
+                try:
+                    opts["timeout"] = float(v)
+                except ValueError:
+                    raise StudyError(f"--timeout {v!r} is not a number of seconds") from None
+            else:
+                opts[a[2:]] = v
+        elif a == "--cost":
+            opts["cost"] = next(it, None)
+        elif a in ("--quick", "--rerun"):
+            opts[a[2:]] = True
+        elif a == "--dry-run":
+            opts["dryRun"] = True
+        elif "=" in a and not a.startswith("-"):
+            knobArgs.append(a)
+        else:
+            raise StudyError(f"unknown argument {a!r}; " + USAGE)
+    return name, knobArgs, opts
+
+
+def main(argv=None):
+    argv = sys.argv[1:] if argv is None else list(argv)
+    prog = ("yade -n -x " if "yade" in sys.modules else "python3 ") + os.path.relpath(sys.argv[0] or "study.py")
+    try:
+        name, knobArgs, opts = parse(argv)
+        rows = study(name, knobArgs, command=" ".join([prog] + argv), **opts)
+    except StudyError as e:
+        raise SystemExit(f"study: {e}") from None
+    if rows:
+        with open(os.path.join(opts["out"] or os.path.join("out", "study", name), "study.md")) as f:
+            print(f.read())
+    return rows
+
+
+if __name__ == "__main__":
+    main()

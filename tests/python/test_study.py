@@ -1,0 +1,116 @@
+"""The speed/accuracy study tool (eigenmpm.study, examples/study.py): a tiny real sweep, the Pareto
+front, the error measures on synthetic runs, and the messages for bad knobs."""
+import csv
+import json
+import math
+import os
+import subprocess
+
+import pytest
+
+from eigenmpm import study
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+
+def test_tiny_bar_sweep_writes_table_and_plot_and_error_falls_with_h(tmp_path):
+    env = dict(os.environ, PYTHONPATH=os.path.join(ROOT, "build", "python"))
+    out = tmp_path / "bar"
+    res = subprocess.run(["yade", "-n", "-x", os.path.join(ROOT, "examples", "study.py"), "bar", "h=250,125",
+                          "periods=1", "--out", str(out)], cwd=ROOT, env=env, capture_output=True, text=True,
+                         timeout=120, stdin=subprocess.DEVNULL)
+    assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-2000:]
+    for name in ("study.csv", "study.md", "study.json", "pareto.png"):
+        assert (out / name).exists(), name
+    assert 0 < (out / "pareto.png").stat().st_size < 200_000
+    rows = list(csv.DictReader(open(out / "study.csv")))
+    assert [r["h"] for r in rows] == ["250", "125"]
+    assert [r["status"] for r in rows] == ["ok", "ok"]
+    # h = 250 mm is 4 cells along the 1 m bar (the generic knob h in mm becomes the script's cells)
+    runs = [json.load(open(out / "runs" / f"run_{i:03d}" / "summary.json")) for i in range(2)]
+    assert [s["cells_along_bar"] for s in runs] == [4, 8]
+    coarse, fine = (float(r["err_freq"]) for r in rows)
+    assert fine < 0.5 * coarse  # the frequency error falls with h (second order: about 4 times)
+    assert coarse == pytest.approx(runs[0]["rel_error"])  # closed-form reference: the script's own error
+    assert all(float(r["cpu_s"]) > 0 and int(r["particles"]) > 0 for r in rows)
+    md = (out / "study.md").read_text()
+    assert "reference: closed form" in md and "| run_001 | 125 |" in md and "error <= 5 %" in md
+
+
+def test_pareto_front_on_a_synthetic_set():
+    cost = [1.0, 2.0, 3.0, 4.0, 2.0, 5.0, float("nan"), 0.5]
+    err = [10.0, 5.0, 6.0, 1.0, 5.0, 1.0, 0.1, float("nan")]
+    # (3, 6) is dominated by (2, 5); (5, 1) by (4, 1); the two equal points (2, 5) both stay
+    assert study.paretoFront(cost, err) == [True, True, False, True, True, False, False, False]
+    assert study.paretoFront([1.0], [1.0]) == [True]
+    assert study.paretoFront([1.0, 1.0], [2.0, 1.0]) == [False, True]  # same cost, smaller error wins
+
+
+def test_recommend_picks_the_cheapest_run_within_each_target():
+    rows = [dict(run="a", cost=10.0, cpu_s=10.0, error=0.004), dict(run="b", cost=3.0, cpu_s=3.0, error=0.03),
+            dict(run="c", cost=1.0, cpu_s=1.0, error=0.15), dict(run="d", cost=0.5, cpu_s=0.5, error=float("nan"))]
+    rec = study.recommend(rows, targets=(0.001, 0.01, 0.05, 0.2))
+    assert rec[0.001] is None
+    assert [rec[t]["run"] for t in (0.01, 0.05, 0.2)] == ["a", "b", "c"]
+
+
+def test_error_measures_on_synthetic_runs(tmp_path):
+    import numpy as np
+    a, b = tmp_path / "a", tmp_path / "b"
+    a.mkdir()
+    b.mkdir()
+    line = np.column_stack([np.linspace(0, 100, 51), np.full(51, 250.0)])
+    np.savetxt(a / "eroded.csv", line, delimiter=",", header="x_mm,y_mm", comments="")
+    np.savetxt(b / "eroded.csv", line + [0.0, 4.0], delimiter=",", header="x_mm,y_mm", comments="")
+    ref = {"peak_load_kN": 20.0, "crack_front_distance_m": 0.2}
+    e = study.errors("lshaped_panel", {"peak_load_kN": 22.0}, str(b), ref, str(a))
+    assert e["peak"] == pytest.approx(0.1)
+    assert e["path_mm"] == pytest.approx(4.0)  # the same path 4 mm higher
+    assert e["path"] == pytest.approx(4.0 / 200.0)  # over the reference crack length
+    assert study.pathDistance(line, line) == 0.0
+    assert math.isnan(study.pathDistance(line, np.zeros((0, 2))))
+    # crack branching: energies of an h-thick plate are compared per unit thickness
+    fine = {"branching_time_us": 32.0, "dissipated_energy_J": 0.002, "parameters": {"h_mm": 0.5}}
+    coarse = {"branching_time_us": 36.0, "dissipated_energy_J": 0.0044, "parameters": {"h_mm": 1.0}}
+    e = study.errors("crack_branching", coarse, None, fine, None)
+    assert e["branch"] == pytest.approx(0.125) and e["energy"] == pytest.approx(0.1)
+    e = study.errors("crack_branching", dict(coarse, branching_time_us=None), None, fine, None)
+    assert math.isnan(e["branch"])
+    bar = {"omega_numeric": 99.0, "omega_analytic": 100.0}
+    assert study.errors("vibrating_bar", bar, None, "closed-form", None)["freq"] == pytest.approx(0.01)
+    assert study.errors("vibrating_bar", bar, None, {"omega_numeric": 90.0}, None)["freq"] == pytest.approx(0.1)
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["bar", "alpha=1,2"], ["unknown knob 'alpha'", "allowed: h, ppc, shape, dtFraction", "cells"]),
+    (["lpanel", "shape=quad"], ["knob shape = 'quad'", "linear or uGIMP"]),
+    (["lpanel", "ppc=0"], ["knob ppc = '0'", "integer >= 1"]),
+    (["branching", "ppc=2.5"], ["knob ppc = '2.5'", "integer >= 1"]),
+    (["branching", "dtFraction=0.2,1.5"], ["knob dtFraction = '1.5'", "0 < dtFraction <= 1"]),
+    (["lpanel", "kappaOverH=-1"], ["knob kappaOverH = '-1'", "kappaOverH > 0"]),
+    (["lpanel", "h=fine"], ["knob h = 'fine' is not a number", "h > 0 (mm)"]),
+    (["bar", "h=30"], ["knob h = 30 mm does not divide the bar length", "1000/N mm"]),
+    (["plate", "h=1"], ["unknown scene 'plate'", "vibrating_bar, lshaped_panel, crack_branching"]),
+    (["lpanel", "h=10", "--reference", "closed-form"], ["closed-form exists only for vibrating_bar"]),
+    (["bar", "h=100", "--cost", "money"], ["--cost 'money'", "cpu, loop, psteps"]),
+    (["bar", "h="], ["bad knob argument 'h='", "knob=v1,v2"]),
+    (["bar", "--fast"], ["unknown argument '--fast'"]),
+])
+def test_bad_knobs_and_options_name_what_is_allowed(argv, words, tmp_path):
+    with pytest.raises(SystemExit) as err:
+        study.main(argv + ["--out", str(tmp_path), "--dry-run"])
+    message = str(err.value)
+    assert message.startswith("study: ")
+    for w in words:
+        assert w in message, message
+    assert not os.listdir(tmp_path)  # nothing was run
+
+
+def test_dry_run_maps_the_generic_knobs_to_each_script(capsys):
+    lines = []
+    study.study("lpanel", ["h=10,5", "shape=LINEAR", "ppc=3"], out="o", dryRun=True, log=lines.append)
+    assert len(lines) == 2 and lines[0].endswith("h_mm=10.0 shape=linear ppc=3")
+    assert "examples/lshaped_panel.py --out o/runs/run_001" in lines[1] and "h_mm=5.0" in lines[1]
+    lines = []
+    study.study("bar", ["h=62.5", "dtFraction=0.9"], out="o", dryRun=True, log=lines.append)
+    assert lines[0].endswith("plot=0 cells=16 dtFraction=0.9")
