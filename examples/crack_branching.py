@@ -18,8 +18,10 @@ Run::
 
 with params h_mm, ppc, shape, kappaOverH, alpha, endTime_us, dt_us, dtFraction (if > 0: the time step
 as this fraction of the critical step, instead of dt_us), phantom, notchWidthOverH, vtkPeriod_us. Writes
-DIR/summary.json (initiation_time_us, max_tip_speed_m_s, dissipated_energy_J, particles,
-steps, wall_time_s, particle_steps_per_s, ...), DIR/damage.png, DIR/energy.png,
+DIR/summary.json (initiation_time_us, branching_time_us, cut_through_time_us (the first time
+the crack grown from the pre-crack tip reaches the right edge; right_edge_time_upper_us and
+_lower_us per branch, branches_at_right_edge), max_tip_speed_m_s, dissipated_energy_J,
+particles, steps, wall_time_s, particle_steps_per_s, ...), DIR/damage.png, DIR/energy.png,
 DIR/tip_speed.png, DIR/eroded.csv (positions of the eroded points at the end, mm) and a VTK
 series DIR/vtk/plate-*.vtp. --quick: h = 1 mm, 40 us.
 """
@@ -35,6 +37,7 @@ from yade import O, pack, plot
 import eigenmpm as em
 from eigenmpm import plots
 from eigenmpm.cli import runSteps, scriptArgs
+from eigenmpm.fracture import linked
 
 DEFAULTS = dict(h_mm=0.25, ppc=2, shape="uGIMP", kappaOverH=1.1, alpha=2.0, endTime_us=80.0, dt_us=0.01,
                 dtFraction=0.0, phantom=1.0, notchWidthOverH=2.0, vtkPeriod_us=10.0, E=72e9, nu=0.22, rho=2440.0,
@@ -64,6 +67,25 @@ def build(o):
     return mpm, crack
 
 
+def edgeArrivals(X0, events, L, W, spacing, radius):
+    """When the crack reaches the right edge: the erosion events of the crack connected (within
+    `radius`, reference positions) to the eroded point nearest the pre-crack tip, and among them
+    the first eroded within one point spacing of the right edge x = L, above and below mid-height.
+    Returns (cut-through time, [upper branch time, lower branch time]) in s, None where not
+    reached. The plate is cut through when the first branch reaches the edge."""
+    if not events:
+        return None, [None, None]
+    ids = np.array([e[0] for e in events])
+    t = np.array([e[2] for e in events])
+    x = X0[ids, :2]
+    main = linked(x, int(np.argmin(np.sum((x - (0.5 * L, 0.5 * W)) ** 2, axis=1))), radius)
+    edge = main & (x[:, 0] >= L - spacing)
+    times = [float(t[edge & side].min()) if np.any(edge & side) else None
+             for side in (x[:, 1] >= 0.5 * W, x[:, 1] < 0.5 * W)]
+    reached = [v for v in times if v is not None]
+    return (min(reached) if reached else None), times
+
+
 def main(argv):
     o, out, quick = scriptArgs("crack_branching", DEFAULTS, QUICK, argv)
     os.makedirs(out, exist_ok=True)
@@ -79,6 +101,7 @@ def main(argv):
                          iterPeriod=max(1, int(round(o["vtkPeriod_us"] / o["dt_us"]))))
     O.engines = [mpm, crack, em.PlotRecorder(iterPeriod=crack.iterPeriod), vtk,
                  em.Progress(endIter=steps, realPeriod=20)]
+    X0 = mpm.solver.positions().copy()
     start = time.time()
     stopped = runSteps(steps)  # on an error: summary and figures up to the stop
     steps = mpm.solver.steps
@@ -86,6 +109,12 @@ def main(argv):
     n = mpm.solver.numPoints
     summary = dict(crack.summary())
     summary.pop("crack_tips_m")
+    h = o["h_mm"] * 1e-3
+    cut, sides = edgeArrivals(X0, crack.core.events(), 0.1, 0.04, h / o["ppc"], 2 * o["kappaOverH"] * h)
+    summary.update(cut_through_time_us=None if cut is None else 1e6 * cut,
+                   right_edge_time_upper_us=None if sides[0] is None else 1e6 * sides[0],
+                   right_edge_time_lower_us=None if sides[1] is None else 1e6 * sides[1],
+                   branches_at_right_edge=sum(v is not None for v in sides))
     summary.update(particles=n, steps=steps, wall_time_s=wall, particle_steps_per_s=n * steps / wall,
                    elastic_energy_J=mpm.elasticEnergy(), kinetic_energy_J=mpm.kineticEnergy(),
                    tips_at_end=len(crack.history[-1][4]) if crack.history else 0,

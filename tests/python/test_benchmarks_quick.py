@@ -55,3 +55,14 @@ def test_john_shah_quick(tmp_path, gamma, origin):
     assert (tmp_path / "damage.png").stat().st_size > 10000
     assert (tmp_path / "load.png").stat().st_size > 10000
     assert (tmp_path / "vtk" / "beam-series.pvd").exists()
+
+
+def test_crack_branching_cuts_through_at_coarse_resolution(tmp_path):
+    # the quick resolution run on to 80 us: both branches reach the right edge (measured: 56.4 us
+    # for both, the set-up being symmetric about mid-height; paper 68 us at h = 0.25 mm)
+    s = run("crack_branching.py", tmp_path, "endTime_us=80")
+    assert s["branches_at_right_edge"] == 2
+    assert 40 < s["cut_through_time_us"] < 80
+    assert s["cut_through_time_us"] == min(s["right_edge_time_upper_us"], s["right_edge_time_lower_us"])
+    assert s["branching_time_us"] < s["cut_through_time_us"]
+    assert s["max_tip_speed_m_s"] < 3160  # below the Rayleigh speed
