@@ -563,7 +563,19 @@ template <int D, class K> void Solver<D, K>::step(double dt, int nThreads)
     const Vec<D> gravity = settings_.gravity.head<D>();
     auto updateStress = [&](int p, const Stencil& st) {
         Mat<D> L = Mat<D>::Zero();
-        st.forEach(g, [&](int I, double, const Vec<D>& grad) { L.noalias() += g.velocity[I] * grad.transpose(); });
+        if constexpr (K::S == 2) {
+            // The linear hat has a kink at the nodes: a point exactly on a node has weight 0 but
+            // gradient +-1/h on the next node, which can be empty (velocity unknown, set to 0) at
+            // a free face, and a rigid motion would strain. Such a node takes the point's own
+            // velocity, so that the gradients still sum to zero. (uGIMP's gradient vanishes with
+            // its weight, so it never meets an empty node with a nonzero gradient.)
+            const Vec<D> vp = P.v[p];
+            st.forEach(g, [&](int I, double, const Vec<D>& grad) {
+                L.noalias() += (g.mass[I] > 0 ? g.velocity[I] : vp) * grad.transpose();
+            });
+        } else {
+            st.forEach(g, [&](int I, double, const Vec<D>& grad) { L.noalias() += g.velocity[I] * grad.transpose(); });
+        }
         Mat<D>& eps = P.strain[p];
         eps += (0.5 * dt) * (L + L.transpose());
         const ElasticMaterial& m = materials_[P.material[p]];
