@@ -44,7 +44,7 @@ run made separately. The reference run itself is left out of the plot (its error
 Writes DIR/study.csv, DIR/study.md (table, Pareto front, the cheapest run within 1 %, 5 %,
 20 %), DIR/study.json and DIR/pareto.png (error against CPU time, log axes, one panel per
 error, the Pareto front highlighted). Default DIR: out/study/SCENE. Runs already made with
-the same command line are reused (their run.json) unless --rerun.
+the same command line and the same script (its SHA-1 in run.json) are reused unless --rerun.
 """
 import csv
 import itertools
@@ -189,13 +189,17 @@ def configurations(sceneName, knobArgs):
 # --- running --------------------------------------------------------------------------------
 def runOne(script, outDir, args, quick=False, timeout=None, rerun=False, yade="yade"):
     """Runs one configuration in its own YADE process; returns its record (cmd, returncode,
-    cpu_s, wall_s, load_avg, summary). Reuses outDir/run.json made by the same command."""
+    cpu_s, wall_s, load_avg, summary). Reuses outDir/run.json made by the same command with the
+    same script (its SHA-1; the commit is recorded too)."""
+    import hashlib
     cmd = [yade, "-n", "-x", os.path.join(ROOT, script), "--out", outDir] + (["--quick"] if quick else []) + args
+    with open(os.path.join(ROOT, script), "rb") as f:
+        digest = hashlib.sha1(f.read()).hexdigest()
     record = os.path.join(outDir, "run.json")
     if not rerun and os.path.exists(record):
         with open(record) as f:
             old = json.load(f)
-        if old.get("cmd") == cmd and old.get("returncode") == 0:
+        if old.get("cmd") == cmd and old.get("returncode") == 0 and old.get("script_sha1") == digest:
             old["reused"] = True
             return old
     os.makedirs(outDir, exist_ok=True)
@@ -220,10 +224,23 @@ def runOne(script, outDir, args, quick=False, timeout=None, rerun=False, yade="y
     if code == 0 and os.path.exists(path):
         with open(path) as f:
             summary = json.load(f)
-    out = dict(cmd=cmd, returncode=code, cpu_s=cpu, wall_s=wall, load_avg=load, summary=summary, reused=False)
+    out = dict(cmd=cmd, returncode=code, cpu_s=cpu, wall_s=wall, load_avg=load, summary=summary, reused=False,
+               script_sha1=digest, commit=_commit())
     with open(record, "w") as f:
         json.dump(out, f, indent=2)
     return out
+
+
+def _commit():
+    """The repository's HEAD commit (with '+' when the tree has changes), or None."""
+    try:
+        head = subprocess.run(["git", "-C", ROOT, "rev-parse", "--short", "HEAD"], capture_output=True,
+                              text=True, timeout=10).stdout.strip()
+        dirty = subprocess.run(["git", "-C", ROOT, "status", "--porcelain", "--untracked-files=no"],
+                               capture_output=True, text=True, timeout=10).stdout.strip()
+        return (head + ("+" if dirty else "")) or None
+    except (OSError, subprocess.SubprocessError):
+        return None
 
 
 # --- errors ---------------------------------------------------------------------------------
