@@ -6,6 +6,7 @@ Run from the repository root (the study needs no YADE itself, only its runs do):
     yade -n -x examples/study.py SCENE knob=v1,v2,... [knob=v ...] [--out DIR]
         [--reference finest|closed-form|RUN_DIR] [--cost cpu|loop|psteps] [--quick] [--rerun]
         [--timeout S] [--dry-run]
+    yade -n -x examples/study.py --combine STUDY_DIR [STUDY_DIR ...] --out DIR [--cost ...]
     /usr/bin/python3.11 py/eigenmpm/study.py ...       # the same
 
 SCENE: ``vibrating_bar`` (or ``bar``), ``lshaped_panel`` (``lpanel``), ``crack_branching``
@@ -45,6 +46,10 @@ Writes DIR/study.csv, DIR/study.md (table, Pareto front, the cheapest run within
 20 %), DIR/study.json and DIR/pareto.png (error against CPU time, log axes, one panel per
 error, the Pareto front highlighted). Default DIR: out/study/SCENE. Runs already made with
 the same command line and the same script (its SHA-1 in run.json) are reused unless --rerun.
+
+``--combine STUDY_DIR ... --out DIR`` puts several finished studies of one scene, all against
+the same reference (e.g. an h sweep and a ppc sweep given ``--reference`` the h sweep's finest
+run), into one table and plot; their runs are named SWEEP/run_NNN.
 """
 import csv
 import itertools
@@ -371,23 +376,66 @@ def study(sceneName, knobArgs, out=None, reference=None, quick=False, rerun=Fals
         r["errors"] = errs
         vals = [errs.get(k, float("nan")) for k in sc["errors"]]
         r["error"] = max(vals) if all(math.isfinite(v) for v in vals) else float("nan")
+    meta = dict(scene=sceneName, script=sc["script"], reference=refName, knobs=knobs, quick=quick,
+                errors=list(sc["errors"]), command=command, cost=cost,
+                reference_dir=os.path.normpath(refDir) if refDir else "closed-form")
+    return finish(out, meta, rows, log)
+
+
+def finish(out, meta, rows, log=print):
+    """Marks the Pareto fronts (each error and the largest) and writes the table, plot and JSON."""
     candidates = [r for r in rows if not r["reference"]]
-    for name in list(sc["errors"]) + ["error"]:
+    for r in rows:
+        r["pareto"] = {}
+    for name in list(meta["errors"]) + ["error"]:
         flags = paretoFront([r["cost"] for r in candidates],
                             [(r["error"] if name == "error" else r["errors"].get(name, float("nan"))) for r in candidates])
         for r, f in zip(candidates, flags):
-            r.setdefault("pareto", {})[name] = f
-    for r in rows:
-        r.setdefault("pareto", {})
+            r["pareto"][name] = f
     os.makedirs(out, exist_ok=True)
-    meta = dict(scene=sceneName, script=sc["script"], reference=refName, knobs=knobs, quick=quick,
-                errors=list(sc["errors"]), command=command, cost=cost)
     writeTables(out, meta, rows)
     plot(os.path.join(out, "pareto.png"), meta, rows)
     with open(os.path.join(out, "study.json"), "w") as f:
         json.dump(dict(meta, rows=rows), f, indent=2, default=str)
     log(f"wrote {out}/study.csv, study.md, study.json, pareto.png")
     return rows
+
+
+def combine(dirs, out, cost=None, log=print, command=None):
+    """One table and plot for several studies of the same scene against the same reference
+    (their study.json): runs are named SWEEP/run_NNN, knobs are the union (blank where a sweep
+    left the script's default), the reference run appears once."""
+    studies = []
+    for d in dirs:
+        path = os.path.join(d, "study.json")
+        if not os.path.exists(path):
+            raise StudyError(f"--combine: {d} has no study.json")
+        with open(path) as f:
+            studies.append((d, json.load(f)))
+    first = studies[0][1]
+    for d, st in studies[1:]:
+        for key in ("scene", "reference_dir"):
+            if st.get(key) != first.get(key):
+                raise StudyError(f"--combine: {d} has {key} {st.get(key)!r}, {dirs[0]} has {first.get(key)!r}; "
+                                 f"allowed: studies of one scene against one reference")
+    cost = cost or first.get("cost", "cpu")
+    if cost not in COSTS:
+        raise StudyError(f"--cost {cost!r} is invalid; allowed: {', '.join(COSTS)}")
+    knobs, rows, seen = [], [], set()
+    for d, st in studies:
+        knobs += [k for k in st["knobs"] if k not in knobs]
+        for r in st["rows"]:
+            if r["reference"] and os.path.normpath(r["dir"]) in seen:
+                continue
+            seen.add(os.path.normpath(r["dir"]))
+            r = dict(r, run=f"{os.path.basename(os.path.normpath(d))}/{r['run']}")
+            r["cost"] = r.get(COSTS[cost][0]) or float("nan")
+            rows.append(r)
+    refs = [r for r in rows if r["reference"]]  # none when the reference run is outside the sweeps
+    meta = dict(first, knobs=knobs, cost=cost, command=command,
+                reference=first["reference"] if refs or first["reference_dir"] == "closed-form"
+                else f"run in {first['reference_dir']}")
+    return finish(out, meta, rows, log)
 
 
 def _status(rec, s):
@@ -452,7 +500,7 @@ def markdown(meta, rows):
     lines += ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for r in rows:
         pps = r["particle_steps_per_s"]
-        cells = [r["run"] + (" (ref)" if r["reference"] else "")] + [str(r["config"][k]) for k in meta["knobs"]]
+        cells = [r["run"] + (" (ref)" if r["reference"] else "")] + [str(r["config"].get(k, "")) for k in meta["knobs"]]
         cells += [_fmt(r["h_mm"]), _fmt(r["dt_us"]), _fmt(r["particles"]), _fmt(r["steps"]), f"{r['cpu_s']:.1f}",
                   f"{r['wall_s']:.1f}", f"{pps / 1e6:.2f}" if pps else ""]
         for k in errs:
@@ -491,7 +539,7 @@ def _ticks(axis, values):
 
 
 def _label(r, knobs):
-    return " ".join(f"{k}={r['config'][k]}" for k in knobs) or r["run"]
+    return " ".join(f"{k}={r['config'][k]}" for k in knobs if k in r["config"]) or r["run"]
 
 
 def plot(path, meta, rows):
@@ -501,7 +549,7 @@ def plot(path, meta, rows):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     errs = meta["errors"]
-    varied = [k for k in meta["knobs"] if len({str(r["config"][k]) for r in rows}) > 1]
+    varied = [k for k in meta["knobs"] if len({str(r["config"].get(k)) for r in rows}) > 1]
     fig, axes = plt.subplots(1, len(errs), figsize=(5.2 * len(errs), 4.2), squeeze=False)
     for ax, name in zip(axes[0], errs):
         pts = [(r["cost"], r["errors"].get(name, float("nan")), r) for r in rows
@@ -535,7 +583,8 @@ def plot(path, meta, rows):
 
 # --- command line ---------------------------------------------------------------------------
 USAGE = ("usage: study.py SCENE knob=v1,v2,... [knob=v ...] [--out DIR] [--reference finest|closed-form|RUN_DIR] "
-         "[--cost cpu|loop|psteps] [--quick] [--rerun] [--timeout S] [--dry-run]")
+         "[--cost cpu|loop|psteps] [--quick] [--rerun] [--timeout S] [--dry-run]; "
+         "or study.py --combine STUDY_DIR [STUDY_DIR ...] --out DIR [--cost cpu|loop|psteps]")
 
 
 def parse(argv):
@@ -572,16 +621,41 @@ def parse(argv):
     return name, knobArgs, opts
 
 
+def parseCombine(argv):
+    """(study directories, out, cost) from ``--combine DIR [DIR ...] --out DIR [--cost C]``."""
+    dirs, out, cost = [], None, None
+    it = iter(argv[1:])
+    for a in it:
+        if a in ("--out", "--cost"):
+            v = next(it, None)
+            if v is None:
+                raise StudyError(f"{a} needs a value; " + USAGE)
+            out, cost = (v, cost) if a == "--out" else (out, v)
+        elif a.startswith("-"):
+            raise StudyError(f"unknown argument {a!r} with --combine; " + USAGE)
+        else:
+            dirs.append(a)
+    if not dirs or not out:
+        raise StudyError("--combine needs study directories and --out DIR; " + USAGE)
+    return dirs, out, cost
+
+
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else list(argv)
     prog = ("yade -n -x " if "yade" in sys.modules else "python3 ") + os.path.relpath(sys.argv[0] or "study.py")
+    command = " ".join([prog] + argv)
     try:
-        name, knobArgs, opts = parse(argv)
-        rows = study(name, knobArgs, command=" ".join([prog] + argv), **opts)
+        if argv[:1] == ["--combine"]:
+            dirs, out, cost = parseCombine(argv)
+            rows = combine(dirs, out, cost, command=command)
+        else:
+            name, knobArgs, opts = parse(argv)
+            out = opts["out"] or os.path.join("out", "study", name)
+            rows = study(name, knobArgs, command=command, **opts)
     except StudyError as e:
         raise SystemExit(f"study: {e}") from None
     if rows:
-        with open(os.path.join(opts["out"] or os.path.join("out", "study", name), "study.md")) as f:
+        with open(os.path.join(out, "study.md")) as f:
             print(f.read())
     return rows
 

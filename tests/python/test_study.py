@@ -114,3 +114,28 @@ def test_dry_run_maps_the_generic_knobs_to_each_script(capsys):
     lines = []
     study.study("bar", ["h=62.5", "dtFraction=0.9"], out="o", dryRun=True, log=lines.append)
     assert lines[0].endswith("plot=0 cells=16 dtFraction=0.9")
+
+
+def _row(run, config, cpu, err, reference=False):
+    return dict(run=run, dir=f"sweep/runs/{run}", config=config, status="ok", h_mm=1.0, dt_us=0.1, particles=10,
+                steps=10, cpu_s=cpu, wall_s=cpu, loop_wall_s=cpu, particle_steps_per_s=1.0, load_avg=0.0,
+                particle_steps=100, summary={}, reference=reference, errors={"freq": err}, error=err, cost=cpu)
+
+
+def test_combine_merges_studies_against_one_reference(tmp_path):
+    meta = dict(scene="vibrating_bar", script="examples/verification/vibrating_bar.py", reference="closed form",
+                quick=False, errors=["freq"], command=None, cost="cpu", reference_dir="closed-form")
+    a, b = tmp_path / "h", tmp_path / "ppc"
+    study.finish(str(a), dict(meta, knobs=["h"]), [_row("run_000", {"h": "100"}, 1.0, 0.03),
+                                                  _row("run_001", {"h": "50"}, 2.0, 0.01)], log=lambda *_: None)
+    study.finish(str(b), dict(meta, knobs=["ppc"]), [_row("run_000", {"ppc": "3"}, 1.5, 0.005)], log=lambda *_: None)
+    rows = study.combine([str(a), str(b)], str(tmp_path / "all"), log=lambda *_: None)
+    assert [r["run"] for r in rows] == ["h/run_000", "h/run_001", "ppc/run_000"]
+    assert [r["pareto"]["error"] for r in rows] == [True, False, True]  # (2 s, 1 %) loses to (1.5 s, 0.5 %)
+    md = (tmp_path / "all" / "study.md").read_text()
+    assert "| h/run_001 | 50 |  |" in md and (tmp_path / "all" / "pareto.png").exists()
+    c = tmp_path / "other"
+    study.finish(str(c), dict(meta, knobs=["h"], reference_dir="runs/run_004"), [_row("run_000", {"h": "9"}, 1, 0.1)],
+                 log=lambda *_: None)
+    with pytest.raises(study.StudyError, match="reference_dir"):
+        study.combine([str(a), str(c)], str(tmp_path / "bad"))
