@@ -10,10 +10,12 @@ Put the engines in ``O.engines`` beside YADE's own::
     O.engines = [mpm, em.VTKRecorder(fileName='out/bar-', iterPeriod=100),
                  em.PlotRecorder(iterPeriod=10), em.Progress(endIter=10000)]
 """
+from .dem import DemMpmPair, calibrate as calibrateDem, uniaxialTension
 from .engines import MpmEngine, VelocityBC, callEvery, criticalTimeStep, findEngine, mpmEngines
 from .fracture import EigenErosion, kappaRange
 from .materials import ElasticMaterial
 from .recorders import PlotRecorder, Progress, VTKRecorder
 
 __all__ = ["MpmEngine", "EigenErosion", "kappaRange", "VelocityBC", "ElasticMaterial", "VTKRecorder",
-           "PlotRecorder", "Progress", "callEvery", "criticalTimeStep", "findEngine", "mpmEngines"]
+           "PlotRecorder", "Progress", "callEvery", "criticalTimeStep", "findEngine", "mpmEngines",
+           "DemMpmPair", "calibrateDem", "uniaxialTension"]
