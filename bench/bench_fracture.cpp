@@ -11,7 +11,8 @@
 // A control pair of identical solvers shows the noise floor of such a comparison on the machine.
 // Each pair is timed as alternating blocks of --block steps (A B A B ...) for --min-time s
 // of CPU time in total per case and the ratio of the summed times is reported, so that a slow spell of the
-// machine hits both. Single thread unless --threads N.
+// machine hits both; so is the median over the block pairs of the per-pair ratio A/B (robust
+// to a pair hit by another process), with its quartiles. Single thread unless --threads N.
 //
 //   bench_fracture [--h-mm 0.5] [--crack-time-us 25] [--block 20] [--min-time 4] [--threads 1]
 //                  [--block-points 1e5] [--quick]
@@ -21,6 +22,8 @@
 #include <cstdlib>
 #include <cstring>
 #include <ctime>
+#include <algorithm>
+#include <vector>
 #include <functional>
 #include <string>
 
@@ -45,15 +48,39 @@ double seconds(const std::function<void()>& f)
     return double(std::clock() - c0) / CLOCKS_PER_SEC;
 }
 
-/// Alternates blocks of `block` steps of a and b until minTime is spent; returns (time a, time b).
-std::pair<double, double> interleave(const std::function<void()>& a, const std::function<void()>& b, double minTime)
-{
-    double ta = 0, tb = 0;
-    while (ta + tb < minTime) {
-        ta += seconds(a);
-        tb += seconds(b);
+/// Summed CPU times of a and b, and the ratio a/b of every pair of blocks.
+struct Timing {
+    double first = 0, second = 0;
+    std::vector<double> ratios;
+    double quantile(double q) const
+    {
+        std::vector<double> r = ratios;
+        std::sort(r.begin(), r.end());
+        const double pos = q * (r.size() - 1);
+        const std::size_t i = static_cast<std::size_t>(pos);
+        return i + 1 < r.size() ? r[i] + (pos - i) * (r[i + 1] - r[i]) : r.back();
     }
-    return {ta, tb};
+};
+
+/// Alternates blocks of `block` steps of a and b until minTime is spent (the order within a pair
+/// alternating too, so that neither always runs first).
+Timing interleave(const std::function<void()>& a, const std::function<void()>& b, double minTime)
+{
+    Timing t;
+    while (t.first + t.second < minTime) {
+        double ta, tb;
+        if (t.ratios.size() % 2 == 0) {
+            ta = seconds(a);
+            tb = seconds(b);
+        } else {
+            tb = seconds(b);
+            ta = seconds(a);
+        }
+        t.first += ta;
+        t.second += tb;
+        if (tb > 0) t.ratios.push_back(ta / tb);
+    }
+    return t;
 }
 
 /// The crack-branching plate: 100 x 40 mm, glass, traction 12 MPa on the top and bottom layers,
@@ -80,14 +107,18 @@ Plate plate(double h, bool crack)
     return p;
 }
 
-void report(const char* name, long points, int steps, std::pair<double, double> t, const char* what)
+void report(const char* name, long points, int steps, const Timing& t, const char* what)
 {
     const double overhead = 100.0 * (t.first / t.second - 1.0);
-    std::printf("%-34s %8ld points %7d steps each: %s %+6.1f %%  (%.3g vs %.3g particle-steps/s)\n", name, points,
-                steps, what, overhead, points * steps / t.first, points * steps / t.second);
+    const double median = 100.0 * (t.quantile(0.5) - 1.0);
+    std::printf("%-34s %8ld points %7d steps each: %s %+6.1f %%  (%.3g vs %.3g particle-steps/s); median of %zu "
+                "block pairs %+6.1f %% (quartiles %+.1f, %+.1f)\n",
+                name, points, steps, what, overhead, points * steps / t.first, points * steps / t.second,
+                t.ratios.size(), median, 100.0 * (t.quantile(0.25) - 1.0), 100.0 * (t.quantile(0.75) - 1.0));
     std::printf("JSON {\"case\": \"%s\", \"points\": %ld, \"steps\": %d, \"time_with_s\": %.6g, "
-                "\"time_without_s\": %.6g, \"overhead_percent\": %.3f}\n",
-                name, points, steps, t.first, t.second, overhead);
+                "\"time_without_s\": %.6g, \"overhead_percent\": %.3f, \"pairs\": %zu, "
+                "\"median_pair_overhead_percent\": %.3f}\n",
+                name, points, steps, t.first, t.second, overhead, t.ratios.size(), median);
 }
 
 }  // namespace

@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Builds (if needed) and runs the step-throughput benchmark (bench/bench_block.cpp), printing the
 # machine first, then the fracture-overhead benchmark (bench/bench_fracture.cpp; its arguments
-# in FRACTURE_ARGS, e.g. FRACTURE_ARGS=--quick). `make bench` calls this. Arguments are passed
+# in FRACTURE_ARGS, e.g. FRACTURE_ARGS=--quick) and, where yade is installed, the YADE-path overhead
+# benchmark (bench/bench_yade_overhead.py; arguments in YADE_ARGS, e.g. YADE_ARGS='--rounds 4').
+# `make bench` calls this. Arguments are passed
 # to bench_block, e.g.
 #   bash bench/run.sh --quick
 #   bash bench/run.sh --sizes 1e5,1e6 --threads 1,2 --min-time 3 --cases gimp2,linear2,gimp3
@@ -36,3 +38,12 @@ echo
 echo "== bench_fracture ${FRACTURE_ARGS:-}"
 # shellcheck disable=SC2086
 "$BUILD/bench_fracture" ${FRACTURE_ARGS:-}
+echo
+if command -v yade > /dev/null; then
+  echo "== bench_yade_overhead ${YADE_ARGS:-}"
+  # shellcheck disable=SC2086
+  PYTHONPATH="$BUILD/python${PYTHONPATH:+:$PYTHONPATH}" yade -n -j 1 -x bench/bench_yade_overhead.py ${YADE_ARGS:-} \
+    < /dev/null 2>&1 | grep -E '^ *[0-9]+ points|^JSON|rror'
+else
+  echo "== bench_yade_overhead skipped (no yade)"
+fi
