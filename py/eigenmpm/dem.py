@@ -231,6 +231,10 @@ class DemBC:
 
     def apply(self, t):
         from yade import O, Vector3
+        done = not callable(self.velocity) and t >= self.rampTime
+        if done and getattr(self, "_final", False):
+            return  # blocked DOFs keep their velocity: nothing to do after the ramp
+        self._final = done
         v = self.value(t) * self._mask
         for i in self.ids:
             s = O.bodies[i].state
@@ -454,12 +458,14 @@ class DemMpmPair:
     def notch(self, vertices, width=None):
         """A notch along the polyline `vertices` (specimen coordinates): in the MPM a phantom-node
         crack (MpmEngine.crack), in the DEM the spheres whose centre lies within width/2 (default
-        1.01 r, which cuts every bond across it) of the polyline are removed."""
+        1.01 r, which cuts the bonds across it) of the polyline, measured normal to a segment
+        (no round caps at the ends), are removed: a notch 2 to 4 r wide that ends within r of
+        the last vertex."""
         self.mpm.crack(vertices)
         half = 0.5 * width if width else 1.01 * self.dem.radius
         x, ids = self.dem.centres()
         v = np.array([list(p) for p in vertices], float)[:, :2] + self.dem.offset[:2]
-        gone = [i for i, p in zip(ids, x) if _distanceToPolyline(p[:2], v) < half]
+        gone = [i for i, p in zip(ids, x) if _distanceToPolyline(p[:2], v, caps=False) < half]
         self.dem.remove(gone)
         return gone
 
@@ -532,20 +538,25 @@ class DemMpmPair:
         return (t,) + tuple(np.array([r[k][component] for r in c]) for k in range(1, 5))
 
     def wallTimes(self):
-        """Seconds spent in the engines of each model (YADE's engine timing, O.timingEnabled)."""
+        """Seconds spent in the engines of each model (YADE's engine timing, O.timingEnabled),
+        and per engine label under 'engine_wall_s'."""
         dem = sum(e.execTime for e in self._demEngineObjects()) * 1e-9
         mpm = (self.mpm.execTime + self.erosion.execTime) * 1e-9
-        return dict(dem_wall_s=dem, mpm_wall_s=mpm)
+        from yade import O
+        each = {e.label or type(e).__name__: e.execTime * 1e-9 for e in O.engines}
+        return dict(dem_wall_s=dem, mpm_wall_s=mpm, engine_wall_s=each)
 
     def _demEngineObjects(self):
         from yade import O
         mine = {f"{self.dem.tag}_{n}" for n in ("forces", "collider", "interactions", "control", "newton")}
         return [e for e in O.engines if e.label in mine]
 
-    def summary(self, load=None, component=1):
+    def summary(self, load=None, component=1, smooth=0.01):
         """Scalars for summary.json: both models' peak load (N, the given condition's reaction
         component), particles, dissipated energies (J), broken bonds and eroded points, wall times,
-        time steps, the calibration and the thickness scale of the DEM."""
+        time steps, the calibration and the thickness scale of the DEM. Peak loads are those of
+        the reaction averaged over a window of `smooth` x the record (both models carry the
+        oscillations of explicit dynamics); *_raw the largest recorded."""
         from yade import O
         out = dict(dem_model=self.model, dem_spheres=len(self.dem.ids), dem_layers=self.layers,
                    dem_radius_m=self.dem.radius, dem_force_scale=self.dem.scale,
@@ -561,19 +572,33 @@ class DemMpmPair:
         if load is not None:
             t, um, Fm, ud, Fd = self.curve(load, component)
             if len(t):
-                im, idd = int(np.argmax(np.abs(Fm))), int(np.argmax(np.abs(Fd)))
-                out.update(mpm_peak_load_N=float(abs(Fm[im])), mpm_displacement_at_peak_m=float(abs(um[im])),
-                           dem_peak_load_N=float(abs(Fd[idd])), dem_displacement_at_peak_m=float(abs(ud[idd])),
-                           mpm_end_displacement_m=float(um[-1]), dem_end_displacement_m=float(ud[-1]))
+                for name, u, F in (("mpm", um, Fm), ("dem", ud, Fd)):
+                    Fs = smoothed(np.abs(F), smooth)
+                    i = int(np.argmax(Fs))
+                    out.update({f"{name}_peak_load_N": float(Fs[i]), f"{name}_displacement_at_peak_m": float(abs(u[i])),
+                                f"{name}_peak_load_raw_N": float(np.max(np.abs(F))),
+                                f"{name}_end_displacement_m": float(u[-1])})
         out["calibration"] = self.calibration
         return out
 
 
-def _distanceToPolyline(p, v):
+def smoothed(F, fraction=0.01):
+    """Moving average over a window of `fraction` of the samples (at least 1)."""
+    F = np.asarray(F, float)
+    k = max(1, int(round(fraction * len(F))))
+    return np.convolve(F, np.ones(k) / k, mode="same") if len(F) else F
+
+
+def _distanceToPolyline(p, v, caps=True):
+    """Distance from p to the polyline v; without caps only where p projects inside a segment
+    (elsewhere infinite)."""
     best = math.inf
     for a, b in zip(v[:-1], v[1:]):
         ab = b - a
-        t = 0.0 if not ab.any() else min(1.0, max(0.0, float(np.dot(p - a, ab) / np.dot(ab, ab))))
+        t = 0.0 if not ab.any() else float(np.dot(p - a, ab) / np.dot(ab, ab))
+        if not caps and not 0.0 <= t <= 1.0:
+            continue
+        t = min(1.0, max(0.0, t))
         best = min(best, float(np.linalg.norm(p - (a + t * ab))))
     return best
 
@@ -635,18 +660,22 @@ def uniaxialTension(calibration, rho, layers=3, length=None, width=None, directi
     w0 = xm.max() - xm.min()
     curve = []
     every = max(1, steps // 400)
-    start, cpu = time.time(), time.process_time()
-    peak = 0.0
-    for k in range(0, steps, every):
-        O.run(min(every, steps - k), True)
+    state = dict(peak=0.0)
+
+    def sample():
         F = 0.5 * (bp.reaction[ax] - bn.reaction[ax])
         eps = (bp.displacement()[ax] - bn.displacement()[ax]) / gauge
         lat = (np.mean([O.bodies[i].state.pos[other] for i in sideHi]) -
                np.mean([O.bodies[i].state.pos[other] for i in sideLo]) - w0) / w0
         curve.append((eps, F / area, lat))
-        peak = max(peak, F / area)
-        if stopBelow and F / area < stopBelow * peak:
-            break
+        state["peak"] = max(state["peak"], F / area)
+        if stopBelow and F / area < stopBelow * state["peak"]:
+            O.pause()
+
+    from .engines import callEvery
+    O.engines = O.engines + [callEvery(sample, iterPeriod=every)]
+    start, cpu = time.time(), time.process_time()
+    O.run(steps, True)
     wall, cpu = time.time() - start, time.process_time() - cpu
     e = np.array(curve)
     ip = int(np.argmax(e[:, 1]))
@@ -662,3 +691,95 @@ def uniaxialTension(calibration, rho, layers=3, length=None, width=None, directi
                 dissipated_J=energy, cutThrough=bool(cut), brokenBonds=nb, bonds=nbonds,
                 spheres=len(ids), steps=O.iter, wall_s=wall, cpu_s=cpu, direction=direction, layers=layers,
                 curve=e[:, :2].tolist())
+
+
+# --- outputs of the comparison examples ---------------------------------------------------------
+def report(pair, out, load, component=1, title="", extra=None, wall=None, cpu=None, sign=1.0, band=None):
+    """Writes DIR/summary.json (pair.summary plus particles, steps, wall_time_s,
+    particle_steps_per_s overall and per model, `extra`), DIR/load_displacement.csv and .png
+    (both models' reaction of condition `load` against their load-point displacement, in kN and
+    mm, times `sign`) and DIR/crack_patterns.png (MPM eroded points, DEM broken bonds, side by
+    side). Returns the summary."""
+    import json
+    import os
+    from yade import O
+    os.makedirs(out, exist_ok=True)
+    s = pair.summary(load, component)
+    steps = O.iter
+    s.update(particles=s["mpm_points"] + s["dem_spheres"], steps=steps)
+    if wall is not None:
+        s["wall_time_s"] = wall
+        s["particle_steps_per_s"] = s["particles"] * steps / wall if wall > 0 else None
+    if cpu is not None:
+        s["cpu_time_s"] = cpu
+    for name, n in (("mpm", s["mpm_points"]), ("dem", s["dem_spheres"])):
+        w = s[f"{name}_wall_s"]
+        s[f"{name}_particle_steps_per_s"] = n * steps / w if w > 0 else None
+    s.update(extra or {})
+    with open(os.path.join(out, "summary.json"), "w") as f:
+        json.dump(s, f, indent=2, default=float)
+    t, um, Fm, ud, Fd = pair.curve(load, component)
+    with open(os.path.join(out, "load_displacement.csv"), "w") as f:
+        f.write("t_s,mpm_displacement_mm,mpm_load_kN,dem_displacement_mm,dem_load_kN\n")
+        for row in zip(t, um * 1e3 * sign, Fm * 1e-3 * sign, ud * 1e3 * sign, Fd * 1e-3 * sign):
+            f.write(",".join(f"{v:.6g}" for v in row) + "\n")
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    if band is not None:
+        ax.fill_between(band[1], band[2], band[3], color="orange", alpha=0.4, label=band[0])
+    for name, u, F, c in (("EigenMPM", um, Fm, "b"), (f"DEM ({pair.model.upper()})", ud, Fd, "r")):
+        ax.plot(sign * u * 1e3, sign * F * 1e-3, color=c, lw=0.4, alpha=0.35)
+        ax.plot(sign * u * 1e3, sign * smoothed(F) * 1e-3, color=c, lw=1.4, label=f"{name} (smoothed)")
+    ax.set_xlabel("load-point displacement (mm)")
+    ax.set_ylabel(f"load (kN, thickness {pair.constants['thickness'] * 1e3:g} mm)")
+    ax.set_title(title or "load-displacement")
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(os.path.join(out, "load_displacement.png"), dpi=110)
+    plt.close(fig)
+    crackPatterns(pair, os.path.join(out, "crack_patterns.png"), title)
+    return s
+
+
+def crackPatterns(pair, path, title=""):
+    """The MPM points (eroded red) and the DEM spheres projected on x-y (bonds broken red, at
+    their midpoints), both in specimen coordinates, side by side."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    x = pair.mpm.solver.positions() * 1e3
+    er = pair.mpm.solver.damage() <= 0
+    c, _ = pair.dem.centres()
+    c = (c - pair.dem.offset) * 1e3
+    b, nb, nbonds, _ = pair.dem.bondState()
+    b = (b - pair.dem.offset) * 1e3 if len(b) else b
+    lo = np.minimum(x.min(axis=0), c.min(axis=0))
+    hi = np.maximum(x.max(axis=0), c.max(axis=0))
+    span = hi - lo
+    fig, axes = plt.subplots(1, 2, figsize=(11, max(2.5, min(6.0, 5.5 * span[1] / span[0] + 0.8))))
+    size = max(0.2, 4e3 / max(len(x), 1))
+    axes[0].scatter(x[~er, 0], x[~er, 1], s=size, c="0.75", marker="s", linewidths=0)
+    axes[0].scatter(x[er, 0], x[er, 1], s=3 * size, c="#d62728", marker="s", linewidths=0)
+    for k in range(pair.mpm.solver.numCracks):
+        v = np.array([list(p) for p in pair.mpm.solver.crackVertices(k)]) * 1e3
+        axes[0].plot(v[:, 0], v[:, 1], "k-", lw=1)
+    axes[0].set_title(f"EigenMPM: {int(er.sum())} of {len(x)} points eroded", fontsize=9)
+    size = max(0.2, 4e3 / max(len(c), 1))
+    axes[1].scatter(c[:, 0], c[:, 1], s=size, c="0.75", linewidths=0)
+    if len(b):
+        axes[1].scatter(b[:, 0], b[:, 1], s=2 * size, c="#d62728", linewidths=0)
+    axes[1].set_title(f"DEM ({pair.model.upper()}): {nb} of {nbonds} bonds broken", fontsize=9)
+    for ax in axes:
+        ax.set_xlim(lo[0] - 5, hi[0] + 5)
+        ax.set_ylim(lo[1] - 5, hi[1] + 5)
+        ax.set_aspect("equal")
+        ax.set_xlabel("x (mm)")
+    axes[0].set_ylabel("y (mm)")
+    if title:
+        fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
