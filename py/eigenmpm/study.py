@@ -365,11 +365,15 @@ def study(sceneName, knobArgs, out=None, reference=None, quick=False, rerun=Fals
     if reference == "finest":
         refRow = max(good, key=lambda r: r["particle_steps"])
         ref, refDir, refName = refRow["summary"], refRow["dir"], f"finest run of the sweep, {refRow['run']} {refRow['config']}"
+        refShort = f"finest run, h = {refRow['h_mm']:g} mm" if refRow["h_mm"] else f"finest run, {refRow['run']}"
     elif reference == "closed-form":
         refRow, ref, refDir, refName = None, "closed-form", None, "closed form"
+        refShort = refName
     else:
         with open(os.path.join(reference, "summary.json")) as f:
             refRow, ref, refDir, refName = None, json.load(f), reference, f"run in {reference}"
+        h = ref.get("h_m", 0) * 1e3 or ref.get("parameters", {}).get("h_mm")
+        refShort = f"run in {reference}" + (f", h = {h:g} mm" if h else "")
     for r in rows:
         r["reference"] = r is refRow
         errs = errors(sceneName, r["summary"], r["dir"], ref, refDir) if r["status"] == "ok" else {}
@@ -377,7 +381,7 @@ def study(sceneName, knobArgs, out=None, reference=None, quick=False, rerun=Fals
         vals = [errs.get(k, float("nan")) for k in sc["errors"]]
         r["error"] = max(vals) if all(math.isfinite(v) for v in vals) else float("nan")
     meta = dict(scene=sceneName, script=sc["script"], reference=refName, knobs=knobs, quick=quick,
-                errors=list(sc["errors"]), command=command, cost=cost,
+                errors=list(sc["errors"]), command=command, cost=cost, reference_short=refShort,
                 reference_dir=os.path.normpath(refDir) if refDir else "closed-form")
     return finish(out, meta, rows, log)
 
@@ -432,9 +436,9 @@ def combine(dirs, out, cost=None, log=print, command=None):
             r["cost"] = r.get(COSTS[cost][0]) or float("nan")
             rows.append(r)
     refs = [r for r in rows if r["reference"]]  # none when the reference run is outside the sweeps
-    meta = dict(first, knobs=knobs, cost=cost, command=command,
-                reference=first["reference"] if refs or first["reference_dir"] == "closed-form"
-                else f"run in {first['reference_dir']}")
+    meta = dict(first, knobs=knobs, cost=cost, command=command)
+    if not refs and first["reference_dir"] != "closed-form":
+        meta["reference"] = meta["reference_short"] = f"run in {first['reference_dir']}"
     return finish(out, meta, rows, log)
 
 
@@ -538,8 +542,21 @@ def _ticks(axis, values):
         axis.set_minor_formatter(NullFormatter())
 
 
-def _label(r, knobs):
-    return " ".join(f"{k}={r['config'][k]}" for k in knobs if k in r["config"]) or r["run"]
+def _labels(rows, knobs):
+    """Short point labels: h and each swept knob whose value differs from its most common one
+    (shape as its name, dtFraction as dt=)."""
+    from collections import Counter
+    varied = [k for k in knobs if len({str(r["config"].get(k)) for r in rows}) > 1]
+    common = {k: Counter(str(r["config"].get(k)) for r in rows).most_common(1)[0][0] for k in varied}
+    out = []
+    for r in rows:
+        parts = []
+        for k in varied:
+            v = r["config"].get(k)
+            if v is not None and (k == "h" or str(v) != common[k]):
+                parts.append(str(v) if k == "shape" else f"{'dt' if k == 'dtFraction' else k}={v}")
+        out.append(" ".join(parts) or r["run"])
+    return out
 
 
 def plot(path, meta, rows):
@@ -549,7 +566,7 @@ def plot(path, meta, rows):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     errs = meta["errors"]
-    varied = [k for k in meta["knobs"] if len({str(r["config"].get(k)) for r in rows}) > 1]
+    labels = dict(zip((r["run"] for r in rows), _labels(rows, meta["knobs"])))
     fig, axes = plt.subplots(1, len(errs), figsize=(5.2 * len(errs), 4.2), squeeze=False)
     for ax, name in zip(axes[0], errs):
         pts = [(r["cost"], r["errors"].get(name, float("nan")), r) for r in rows
@@ -561,8 +578,18 @@ def plot(path, meta, rows):
             fp = sorted((c, e) for (c, e, _), f in zip(pts, front) if f)
             ax.plot([c for c, _ in fp], [100 * e for _, e in fp], "o-", color="#d62728", ms=6, lw=1.5,
                     label="Pareto front", zorder=3)
-            for c, e, r in pts:
-                ax.annotate(_label(r, varied), (c, 100 * e), textcoords="offset points", xytext=(4, 3), fontsize=7)
+            # Front points first; a label is left out when it repeats one (the same configuration in
+            # two sweeps) or would overlap a drawn label (within 0.3 decades to the side, 0.06 decades
+            # up or down; the table has all).
+            drawn, at = set(), []
+            onFront = {id(r) for (_, _, r), f in zip(pts, front) if f}
+            for c, e, r in sorted(pts, key=lambda p: id(p[2]) not in onFront):
+                x, y = math.log10(c), math.log10(e)
+                if labels[r["run"]] in drawn or any(abs(x - u) < 0.3 and abs(y - v) < 0.06 for u, v in at):
+                    continue
+                drawn.add(labels[r["run"]])
+                at.append((x, y))
+                ax.annotate(labels[r["run"]], (c, 100 * e), textcoords="offset points", xytext=(4, 3), fontsize=6.5)
             ax.set_xscale("log")
             ax.set_yscale("log")
             _ticks(ax.xaxis, [c for c, _, _ in pts])
@@ -574,7 +601,8 @@ def plot(path, meta, rows):
         ax.set_ylabel(f"{ERROR_LABELS[name]} error (%)")
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=8)
-    fig.suptitle(f"{meta['scene']}: error against cost (reference: {meta['reference']})", fontsize=9)
+    fig.suptitle(f"{meta['scene']}: error against cost (reference: {meta.get('reference_short', meta['reference'])})",
+                 fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=90)
     plt.close(fig)
