@@ -364,7 +364,8 @@ def study(sceneName, knobArgs, out=None, reference=None, quick=False, rerun=Fals
         raise StudyError("no run succeeded; see the runs' log.txt")
     if reference == "finest":
         refRow = max(good, key=lambda r: r["particle_steps"])
-        ref, refDir, refName = refRow["summary"], refRow["dir"], f"finest run of the sweep, {refRow['run']} {refRow['config']}"
+        ref, refDir = refRow["summary"], refRow["dir"]
+        refName = f"finest run of the sweep, {refRow['run']} {refRow['config']}"
         refShort = f"finest run, h = {refRow['h_mm']:g} mm" if refRow["h_mm"] else f"finest run, {refRow['run']}"
     elif reference == "closed-form":
         refRow, ref, refDir, refName = None, "closed-form", None, "closed form"
@@ -392,8 +393,8 @@ def finish(out, meta, rows, log=print):
     for r in rows:
         r["pareto"] = {}
     for name in list(meta["errors"]) + ["error"]:
-        flags = paretoFront([r["cost"] for r in candidates],
-                            [(r["error"] if name == "error" else r["errors"].get(name, float("nan"))) for r in candidates])
+        errs = [r["error"] if name == "error" else r["errors"].get(name, float("nan")) for r in candidates]
+        flags = paretoFront([r["cost"] for r in candidates], errs)
         for r, f in zip(candidates, flags):
             r["pareto"][name] = f
     os.makedirs(out, exist_ok=True)
@@ -484,7 +485,8 @@ def writeTables(out, meta, rows):
         w = csv.writer(f)
         w.writerow([c for c, _ in cols])
         for r in rows:
-            w.writerow(["" if v is None else (f"{v:.6g}" if isinstance(v, float) else v) for v in (g(r) for _, g in cols)])
+            values = (g(r) for _, g in cols)
+            w.writerow(["" if v is None else (f"{v:.6g}" if isinstance(v, float) else v) for v in values])
     with open(os.path.join(out, "study.md"), "w") as f:
         f.write(markdown(meta, rows))
 
