@@ -9,9 +9,9 @@ strength parameter).
 
 - MPM: h_mm cells, 2 x 2 points per cell, EigenErosion (alpha, kappaOverH), the notch a
   phantom-node crack (sharp).
-- DEM: an hcp slab of `layers` layers of spheres of radius radius_mm, 5 mm in x beyond... placed
-  beside the MPM beam (x + 562 mm); the notch: spheres within 1.01 r of the notch line removed
-  (2 to 4 r wide). DEM forces and energies are scaled from the slab's represented thickness
+- DEM: an hcp slab of `layers` layers of spheres of radius radius_mm beside the MPM beam
+  (x + 562 mm); the notch: the spheres within 1.01 r of the notch line removed (2 to 4 r wide,
+  ending within r of the MPM notch's tip). DEM forces and energies are scaled from the slab's represented thickness
   (layers x 1.633 r) to the 50 mm (`dem_force_scale` in the summary). Micro-parameters from
   eigenmpm.dem.calibrate; with calibrate=N > 0, N corrections from the DEM uniaxial tension test
   (measured numbers in summary.json under calibration.history).
@@ -42,7 +42,7 @@ import eigenmpm as em
 from eigenmpm import dem
 from eigenmpm.cli import runSteps, scriptArgs
 
-DEFAULTS = dict(h_mm=5.0, radius_mm=2.5, layers=3, model="cpm", calibrate=1, velocity_m_s=0.02,
+DEFAULTS = dict(h_mm=5.0, radius_mm=3.0, layers=3, model="cpm", calibrate=1, velocity_m_s=0.02,
                 rampTime_ms=1.0, endDisplacement_mm=0.4, dtFraction=0.8, demDamping=0.0, alpha=1.5,
                 kappaOverH=1.1, supportWidth_mm=10.0, loadWidth_mm=10.0, notch_mm=50.0,
                 E=30e9, nu=0.2, rho=2400.0, Gc=100.0, ft=3e6)

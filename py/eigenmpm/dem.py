@@ -474,7 +474,6 @@ class DemMpmPair:
         """A velocity condition on both models: on the MPM as ``MpmEngine.velocityBC(points= or
         region=)``, on the DEM on the spheres whose centre lies in demRegion (specimen coordinates;
         default: `points`, enlarged by the radius r). Returns the pair (.mpm, .dem)."""
-        from yade import O  # noqa: F401
         if points is not None and not callable(points) and not hasattr(points, "aabb"):
             mpmIds = np.asarray(points, int)
         elif points is not None:
@@ -761,7 +760,7 @@ def crackPatterns(pair, path, title=""):
     fig, axes = plt.subplots(1, 2, figsize=(11, max(2.5, min(6.0, 5.5 * span[1] / span[0] + 0.8))))
     size = max(0.2, 4e3 / max(len(x), 1))
     axes[0].scatter(x[~er, 0], x[~er, 1], s=size, c="0.75", marker="s", linewidths=0)
-    axes[0].scatter(x[er, 0], x[er, 1], s=3 * size, c="#d62728", marker="s", linewidths=0)
+    axes[0].scatter(x[er, 0], x[er, 1], s=max(6.0, 3 * size), c="#d62728", marker="s", linewidths=0)
     for k in range(pair.mpm.solver.numCracks):
         v = np.array([list(p) for p in pair.mpm.solver.crackVertices(k)]) * 1e3
         axes[0].plot(v[:, 0], v[:, 1], "k-", lw=1)
@@ -769,7 +768,7 @@ def crackPatterns(pair, path, title=""):
     size = max(0.2, 4e3 / max(len(c), 1))
     axes[1].scatter(c[:, 0], c[:, 1], s=size, c="0.75", linewidths=0)
     if len(b):
-        axes[1].scatter(b[:, 0], b[:, 1], s=2 * size, c="#d62728", linewidths=0)
+        axes[1].scatter(b[:, 0], b[:, 1], s=max(6.0, 3 * size), c="#d62728", linewidths=0)
     axes[1].set_title(f"DEM ({pair.model.upper()}): {nb} of {nbonds} bonds broken", fontsize=9)
     for ax in axes:
         ax.set_xlim(lo[0] - 5, hi[0] + 5)
