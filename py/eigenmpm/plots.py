@@ -30,7 +30,7 @@ def damageMap(mpm, path, title=None, scale=1e3, unit="mm"):
     width = 7.0
     fig, ax = plt.subplots(figsize=(width, max(2.0, min(12.0, width * span[1] / span[0]))))
     intact = d > 0
-    if len(x) <= 30000:
+    if len(x) <= 8000:  # beyond, tiny markers leave moire gaps
         size = max(0.3, 2.0e4 / max(len(x), 1))
         ax.scatter(x[intact, 0], x[intact, 1], s=size, c="#1f4e9c", marker="s", linewidths=0, label="intact")
         ax.scatter(x[~intact, 0], x[~intact, 1], s=3 * size, c="#d62728", marker="s", linewidths=0,
