@@ -20,6 +20,9 @@ Modelling choices (parameters in brackets):
   to the nearest mid-line between two columns of points (x = 0 is one; gamma l1 is one for
   h = 0.635 k mm with 320 gamma / k an integer, e.g. gamma = 0.5, 0.75, 0.85 at the default
   and quick h; otherwise a shift below h/4).
+- [notchWidth_mm = 0] A positive width replaces the sharp notch by an open one of that width
+  (a sawn notch; the points within half of it from the notch line are left out), to see how the
+  notch's sharpness moves the transition. [flawWidth_mm = 0] likewise for the midspan flaw.
 - Supports: rollers, the velocity y = 0 on the grid nodes nearest to the bottom row of points
   within supportWidth_mm / 2 (2.54 mm, at least the two points next to x = -+L/2) of the
   support; load: the velocity (0, -v(t)) on the nodes nearest to the top row of points within
@@ -46,7 +49,7 @@ Run::
     yade-batch table.txt examples/john_shah.py      # e.g. a column gamma (and quick)
 
 params: gamma, h_mm, kappaOverH, alpha, endTime_us, dt_us, v0_m_s, rampTime_us, overhang_mm,
-flaw_mm, supportWidth_mm, loadWidth_mm, stopAfter_us, vtkPeriod_us, E, nu, rho, Gc. Writes
+flaw_mm, notchWidth_mm, flawWidth_mm, supportWidth_mm, loadWidth_mm, stopAfter_us, vtkPeriod_us, E, nu, rho, Gc. Writes
 DIR/summary.json (crack_origin, initiation_time_us, notch_/midspan_initiation_time_us, the
 crack tops, eroded_elsewhere, peak_load_N, dissipated_energy_J, particles, steps, wall_time_s,
 particle_steps_per_s, ...), DIR/damage.png, DIR/load.png (load-point and support reactions)
@@ -79,7 +82,7 @@ from eigenmpm.cli import runSteps, scriptArgs
 from eigenmpm.fracture import linked
 
 DEFAULTS = dict(gamma=0.5, h_mm=0.635, kappaOverH=1.15, alpha=2.0, endTime_us=4000.0, dt_us=0.1,
-                v0_m_s=0.06, rampTime_us=196.0, overhang_mm=12.7, flaw_mm=1.27,
+                v0_m_s=0.06, rampTime_us=196.0, overhang_mm=12.7, flaw_mm=1.27, notchWidth_mm=0.0, flawWidth_mm=0.0,
                 supportWidth_mm=2.54, loadWidth_mm=2.54, stopAfter_us=20.0,
                 vtkPeriod_us=100.0, E=31.37e9, nu=0.2, rho=2400.0, Gc=31.1)
 QUICK = dict(h_mm=2.54, dt_us=0.5)
@@ -100,9 +103,18 @@ def build(o):
     h, s, half, xn = geometry(o)
     mpm = em.MpmEngine(dim=2, h=h, ppc=2, thickness=h, label="beam")
     concrete = em.ElasticMaterial(E=o["E"], nu=o["nu"], rho=o["rho"], planeStress=True)
-    mpm.fill(pack.inAlignedBox((-half, 0, 0), (half, D, 0)), concrete)
-    mpm.crack([(xn, -h, 0), (xn, A, 0)])
-    mpm.crack([(0, -h, 0), (0, o["flaw_mm"] * 1e-3, 0)])
+    beam = pack.inAlignedBox((-half, 0, 0), (half, D, 0))
+    w = 0.5e-3 * o["notchWidth_mm"]
+    if w > 0:  # a sawn notch: no points within w/2 of the notch line, up to the notch depth
+        beam = beam - pack.inAlignedBox((xn - w, -1, -1), (xn + w, A, 1))
+    wf = 0.5e-3 * o["flawWidth_mm"]
+    if wf > 0:  # an open flaw: no points within wf/2 of the midspan, up to the flaw depth
+        beam = beam - pack.inAlignedBox((-wf, -1, -1), (wf, o["flaw_mm"] * 1e-3, 1))
+    mpm.fill(beam, concrete)
+    if w <= 0:
+        mpm.crack([(xn, -h, 0), (xn, A, 0)])
+    if wf <= 0:
+        mpm.crack([(0, -h, 0), (0, o["flaw_mm"] * 1e-3, 0)])
     e = 1e-6 * h
     ws = max(0.5 * o["supportWidth_mm"] * 1e-3, 0.5 * s) + e
     supports = [mpm.velocityBC(points=pack.inAlignedBox((x - ws, -1, -1), (x + ws, s, 1)),

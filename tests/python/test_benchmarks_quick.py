@@ -57,6 +57,15 @@ def test_john_shah_quick(tmp_path, gamma, origin):
     assert (tmp_path / "vtk" / "beam-series.pvd").exists()
 
 
+def test_john_shah_open_notch_and_flaw(tmp_path):
+    # notchWidth_mm / flawWidth_mm replace the sharp phantom-node notch and flaw by open ones:
+    # at h = 2.54 mm (point spacing 1.27 mm) a 5.08 mm notch leaves out 4 columns x 15 rows of
+    # points and a 2.54 mm flaw 2 columns x 1 row; no phantom crack is left for either
+    s = run("john_shah.py", tmp_path, "gamma=0.5", "notchWidth_mm=5.08", "flawWidth_mm=2.54")
+    assert s["particles"] == 12000 - 60 - 2
+    assert s["crack_origin"] == "notch" and s["notch_crack_points"] > 50
+
+
 def test_crack_branching_cuts_through_at_coarse_resolution(tmp_path):
     # the quick resolution run on to 80 us: both branches reach the right edge (measured: 56.4 us
     # for both, the set-up being symmetric about mid-height; paper 68 us at h = 0.25 mm)
