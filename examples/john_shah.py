@@ -65,8 +65,11 @@ between 0.75 and 0.8 at this resolution. It depends on the resolution: at h_mm=1
 too starts at the notch, at 2541 us (66 s), while G_p at the flaw tip had reached only about
 0.9 Gc. The 1.27 mm flaw is half a cell at h = 2.54 mm and one cell at 1.27 mm, so its tip field
 is not resolved and the eigenerosion threshold there depends on kappa = 1.15 h; the notch
-(a = 7.5 h at 2.54 mm) is resolved at both. The default (paper) resolution, about 25 000 steps
-of 192 000 points, has not been run here.
+(a = 7.5 h at 2.54 mm) is resolved at both. At h = 1.27 mm gamma = 0.9, 0.95 and 1.0 start at
+the midspan (2658 / 2635 / 2618 us). The default (the paper's h = 0.635 mm, 192 000 points, one
+thread): gamma = 0.5 from the notch at 1439 us (426 s), 0.85 from the notch at 2542 us (1022 s),
+0.9 from the midspan at 2821 us with the notch following at 2834 us (749 s): the transition lies
+between 0.85 and 0.9 (doc/validation.md).
 """
 import json
 import os
