@@ -11,7 +11,9 @@ the criterion G_p = Gc is first met at F_c = F sqrt(Gc / max G_p).
     yade -n -x examples/verification/lpanel_corner.py [--out DIR] [h_mm=5 alpha=1.5 kappaOverH=1.1 u_mm=0.2]
 
 Writes DIR/summary.json: load_kN (at u_mm), max_G_J_m2, critical_load_kN,
-critical_displacement_mm (u_mm F_c / F), the paper's Table 1/2 value where there is one.
+critical_displacement_mm (u_mm F_c / F), psi_slope_3_30mm (the exponent s of psi+ ~ r^s from
+the corner, 3-30 mm, in the 150-210 deg sector where the crack runs; Williams' leading term for
+a 270 deg corner gives -0.91), the paper's Table 1/2 value where there is one.
 """
 import json
 import os
@@ -57,12 +59,22 @@ def main(argv):
     near = np.nonzero(np.hypot(x[:, 0] - a, x[:, 1] - a) < 3 * h)[0]
     G = np.asarray(mpm.solver.energyReleaseRate(near.tolist()))
     k = int(np.argmax(G))
+    # How psi+ falls with the distance r from the corner in the sector where the crack runs
+    # (150-210 deg, 3-30 mm; ring means): Williams' leading term gives r^-0.91 for 270 deg.
+    d = x - a
+    r = np.hypot(d[:, 0], d[:, 1])
+    th = np.degrees(np.arctan2(d[:, 1], d[:, 0])) % 360
+    psi = np.asarray(mpm.solver.psiPlus())
+    edges = np.geomspace(3e-3, 30e-3, 8)
+    rings = [(np.sqrt(e0 * e1), psi[(r >= e0) & (r < e1) & (th > 150) & (th < 210)]) for e0, e1 in zip(edges[:-1], edges[1:])]
+    rings = [(rr, p.mean()) for rr, p in rings if len(p) > 3]
+    slope = float(np.polyfit(np.log([q[0] for q in rings]), np.log([q[1] for q in rings]), 1)[0]) if len(rings) > 2 else None
     u = v * (mpm.solver.time - 0.5 * t0)
     Fc = F * np.sqrt(o["Gc"] / G[k])
     summary = dict(load_kN=F / 1e3, displacement_mm=u * 1e3, max_G_J_m2=float(G[k]),
                    max_G_point_mm=(1e3 * x[near[k]]).tolist(), critical_load_kN=Fc / 1e3,
                    critical_displacement_mm=u * 1e3 * Fc / F,
-                   paper_critical_load_kN=PAPER.get((o["h_mm"], o["alpha"], o["kappaOverH"])),
+                   psi_slope_3_30mm=slope, paper_critical_load_kN=PAPER.get((o["h_mm"], o["alpha"], o["kappaOverH"])),
                    particles=mpm.solver.numPoints, steps=mpm.solver.steps, wall_time_s=time.time() - start,
                    parameters=o)
     with open(os.path.join(out, "summary.json"), "w") as f:
