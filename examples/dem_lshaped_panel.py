@@ -30,6 +30,7 @@ bonds, eroded points, mpm_/dem_wall_s, particles, steps, wall_time_s, particle_s
 calibration), DIR/load_displacement.csv/.png and DIR/crack_patterns.png.
 --quick: h = 20 mm, r = 10 mm.
 """
+import json
 import os
 import sys
 import time
@@ -40,7 +41,7 @@ import numpy as np
 
 import eigenmpm as em
 from eigenmpm import dem
-from eigenmpm.cli import runSteps, scriptArgs
+from eigenmpm.cli import scriptArgs
 
 DEFAULTS = dict(h_mm=10.0, radius_mm=5.0, layers=3, model="cpm", calibrate=1, velocity_m_s=0.02,
                 rampTime_ms=2.0, endDisplacement_mm=0.5, dtFraction=0.8, demDamping=0.0, alpha=1.5,
@@ -91,28 +92,11 @@ def main(argv):
     os.makedirs(out, exist_ok=True)
     cpu0 = time.process_time()
     pair = build(o)
-    dt = pair.setTimeStep(o["dtFraction"])
-    t0 = o["rampTime_ms"] * 1e-3
-    u, v = o["endDisplacement_mm"] * 1e-3, o["velocity_m_s"]
-    endTime = u / v + 0.5 * t0 if u / v > 0.5 * t0 else (2 * u * t0 / v) ** 0.5
-    steps = int(round(endTime / dt))
-    O.engines = pair.engines() + [em.callEvery(pair.record, iterPeriod=max(1, steps // 1000), label="record"),
-                                  em.Progress(endIter=steps, realPeriod=30)]
-    print(f"MPM {pair.mpm.solver.numPoints} points, DEM {len(pair.dem.ids)} spheres ({pair.layers} layers), "
-          f"dt {dt:.3g} s (critical DEM {pair.criticalTimeSteps()[0]:.3g}, MPM {pair.criticalTimeSteps()[1]:.3g}), "
-          f"{steps} steps", flush=True)
-    start = time.time()
-    stopped = runSteps(steps)
-    wall = time.time() - start
     title = (f"L-shaped panel: MPM h = {o['h_mm']:g} mm, DEM {o['model'].upper()} "
              f"r = {o['radius_mm']:g} mm x {pair.layers} layers")
-    summary = dem.report(pair, out, "load", component=1, title=title, wall=wall, sign=1.0, band=experiment(),
-                         extra=dict(parameters=o, quick=quick, stopped_early=stopped,
-                                    imposed_displacement_m=u))
-    summary["cpu_time_s"] = time.process_time() - cpu0
-    import json
-    with open(os.path.join(out, "summary.json"), "w") as f:
-        json.dump(summary, f, indent=2, default=float)
+    summary = dem.runToDisplacement(pair, out, "load", o["endDisplacement_mm"] * 1e-3, o["velocity_m_s"],
+                                    o["rampTime_ms"] * 1e-3, o["dtFraction"], title=title, sign=1.0, band=experiment(),
+                                    extra=dict(parameters=o, quick=quick), cpu0=cpu0)
     keys = ("mpm_peak_load_N", "dem_peak_load_N", "mpm_displacement_at_peak_m", "dem_displacement_at_peak_m",
             "mpm_dissipated_energy_J", "dem_dissipated_energy_J", "mpm_eroded", "dem_broken_bonds",
             "mpm_wall_s", "dem_wall_s", "particles", "steps", "wall_time_s", "cpu_time_s")

@@ -693,6 +693,34 @@ def uniaxialTension(calibration, rho, layers=3, length=None, width=None, directi
 
 
 # --- outputs of the comparison examples ---------------------------------------------------------
+def runToDisplacement(pair, out, load, displacement, velocity, rampTime=0.0, dtFraction=0.8, title="",
+                      extra=None, cpu0=None, sign=1.0, band=None, component=1, records=1000):
+    """Runs the pair until the load point has moved by `displacement` (m) under `velocity`
+    (m/s) reached over the ramp `rampTime` (s) (paper Eq 34), with O.dt = dtFraction x the smaller
+    critical step, recording both models about `records` times and reporting progress; a run the
+    solver stops with an error keeps what it computed (eigenmpm.cli.runSteps). Then report():
+    returns the summary, with `cpu_time_s` since `cpu0` (time.process_time()) when given."""
+    from yade import O
+    from .cli import runSteps
+    from .engines import callEvery
+    from .recorders import Progress
+    dt = pair.setTimeStep(dtFraction)
+    u, v, t0 = displacement, velocity, rampTime
+    endTime = u / v + 0.5 * t0 if u / v > 0.5 * t0 else (2 * u * t0 / v) ** 0.5
+    steps = int(round(endTime / dt))
+    O.engines = pair.engines() + [callEvery(pair.record, iterPeriod=max(1, steps // records), label="record"),
+                                  Progress(endIter=steps, realPeriod=30)]
+    dtDem, dtMpm = pair.criticalTimeSteps()
+    print(f"MPM {pair.mpm.solver.numPoints} points, DEM {len(pair.dem.ids)} spheres ({pair.layers} layers), "
+          f"dt {dt:.3g} s (critical DEM {dtDem:.3g}, MPM {dtMpm:.3g}), {steps} steps", flush=True)
+    start = time.time()
+    stopped = runSteps(steps)
+    wall = time.time() - start
+    info = dict(extra or {}, stopped_early=stopped, imposed_displacement_m=u)
+    return report(pair, out, load, component=component, title=title, wall=wall, sign=sign, band=band,
+                  extra=info, cpu=None if cpu0 is None else time.process_time() - cpu0)
+
+
 def report(pair, out, load, component=1, title="", extra=None, wall=None, cpu=None, sign=1.0, band=None):
     """Writes DIR/summary.json (pair.summary plus particles, steps, wall_time_s,
     particle_steps_per_s overall and per model, `extra`), DIR/load_displacement.csv and .png
