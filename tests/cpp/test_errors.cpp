@@ -11,23 +11,10 @@ using emp::ParameterError;
 using emp::SimulationError;
 using emp::Solver;
 using emptest::contains;
+using emptest::messageOf;
 using emptest::to3;
 using emptest::Vec;
 
-/// Runs f, expects an exception of type Ex and returns its message.
-template <class Ex, class F> std::string messageOf(F&& f)
-{
-    try {
-        f();
-    } catch (const Ex& e) {
-        return e.what();
-    } catch (const std::exception& e) {
-        ADD_FAILURE() << "wrong exception type: " << e.what();
-        return "";
-    }
-    ADD_FAILURE() << "no exception thrown";
-    return "";
-}
 
 #define EXPECT_MESSAGE_HAS(msg, sub) EXPECT_TRUE(contains(msg, sub)) << "message \"" << (msg) << "\" lacks \"" << (sub) << "\""
 

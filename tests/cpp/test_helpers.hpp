@@ -135,4 +135,19 @@ template <int D> Mat<D> hooke(const Mat<D>& eps, double lambda, double mu)
 
 inline bool contains(const std::string& s, const std::string& sub) { return s.find(sub) != std::string::npos; }
 
+/// Runs f, expects an exception of type Ex and returns its message.
+template <class Ex, class F> std::string messageOf(F&& f)
+{
+    try {
+        f();
+    } catch (const Ex& e) {
+        return e.what();
+    } catch (const std::exception& e) {
+        ADD_FAILURE() << "wrong exception type: " << e.what();
+        return "";
+    }
+    ADD_FAILURE() << "no exception thrown";
+    return "";
+}
+
 }  // namespace emptest

@@ -17,24 +17,12 @@ using emp::LinearKernel;
 using emp::ParameterError;
 using emp::SimulationError;
 using emp::Solver;
+using emptest::messageOf;
 using emptest::to3;
 using emptest::Vec;
 
 constexpr double kPi = 3.14159265358979323846;
 
-template <class Ex, class F> std::string messageOf(F&& f)
-{
-    try {
-        f();
-    } catch (const Ex& e) {
-        return e.what();
-    } catch (const std::exception& e) {
-        ADD_FAILURE() << "wrong exception type: " << e.what();
-        return "";
-    }
-    ADD_FAILURE() << "no exception thrown";
-    return "";
-}
 
 template <int D, class K> const char* name()
 {
