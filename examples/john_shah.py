@@ -68,9 +68,9 @@ is not resolved and the eigenerosion threshold there depends on kappa = 1.15 h; 
 (a = 7.5 h at 2.54 mm) is resolved at both. At h = 1.27 mm gamma = 0.9, 0.95 and 1.0 start at
 the midspan (2658 / 2635 / 2618 us). The default (the paper's h = 0.635 mm, 192 000 points, one
 thread): gamma = 0.5 from the notch at 1439 us (426 s), 0.85 from the notch at 2542 us (1022 s),
-0.9 from the midspan at 2821 us with the notch following at 2834 us (749 s), 0.95 from the
-midspan at 2820 us (the notch at 2932 us, 722 s): the transition lies between 0.85 and 0.9
-(doc/validation.md).
+0.875 from the notch at 2716 us (678 s), 0.9 from the midspan at 2821 us with the notch
+following at 2834 us (749 s), 0.95 from the midspan at 2820 us (the notch at 2932 us, 722 s):
+the transition lies between 0.875 and 0.9 (doc/validation.md).
 """
 import json
 import os
