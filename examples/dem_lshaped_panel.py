@@ -30,7 +30,6 @@ bonds, eroded points, mpm_/dem_wall_s, particles, steps, wall_time_s, particle_s
 calibration), DIR/load_displacement.csv/.png and DIR/crack_patterns.png.
 --quick: h = 20 mm, r = 10 mm.
 """
-import json
 import os
 import sys
 import time
@@ -97,11 +96,6 @@ def main(argv):
     summary = dem.runToDisplacement(pair, out, "load", o["endDisplacement_mm"] * 1e-3, o["velocity_m_s"],
                                     o["rampTime_ms"] * 1e-3, o["dtFraction"], title=title, sign=1.0, band=experiment(),
                                     extra=dict(parameters=o, quick=quick), cpu0=cpu0)
-    keys = ("mpm_peak_load_N", "dem_peak_load_N", "mpm_displacement_at_peak_m", "dem_displacement_at_peak_m",
-            "mpm_dissipated_energy_J", "dem_dissipated_energy_J", "mpm_eroded", "dem_broken_bonds",
-            "mpm_wall_s", "dem_wall_s", "particles", "steps", "wall_time_s", "cpu_time_s")
-    print(json.dumps({k: summary.get(k) for k in keys}, indent=2))
-    print("outputs in", out)
     return summary
 
 

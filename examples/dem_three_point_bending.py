@@ -32,7 +32,6 @@ wall_time_s, particle_steps_per_s, calibration), DIR/load_displacement.csv/.png 
 DIR/crack_patterns.png.
 --quick: h = 10 mm, r = 5 mm, endDisplacement 0.25 mm.
 """
-import json
 import os
 import sys
 import time
@@ -85,11 +84,6 @@ def main(argv):
     summary = dem.runToDisplacement(pair, out, "load", o["endDisplacement_mm"] * 1e-3, o["velocity_m_s"],
                                     o["rampTime_ms"] * 1e-3, o["dtFraction"], title=title, sign=-1.0,
                                     extra=dict(parameters=o, quick=quick), cpu0=cpu0)
-    keys = ("mpm_peak_load_N", "dem_peak_load_N", "mpm_displacement_at_peak_m", "dem_displacement_at_peak_m",
-            "mpm_dissipated_energy_J", "dem_dissipated_energy_J", "mpm_eroded", "dem_broken_bonds",
-            "mpm_wall_s", "dem_wall_s", "particles", "steps", "wall_time_s", "cpu_time_s")
-    print(json.dumps({k: summary.get(k) for k in keys}, indent=2))
-    print("outputs in", out)
     return summary
 
 

@@ -698,8 +698,9 @@ def runToDisplacement(pair, out, load, displacement, velocity, rampTime=0.0, dtF
     """Runs the pair until the load point has moved by `displacement` (m) under `velocity`
     (m/s) reached over the ramp `rampTime` (s) (paper Eq 34), with O.dt = dtFraction x the smaller
     critical step, recording both models about `records` times and reporting progress; a run the
-    solver stops with an error keeps what it computed (eigenmpm.cli.runSteps). Then report():
-    returns the summary, with `cpu_time_s` since `cpu0` (time.process_time()) when given."""
+    solver stops with an error keeps what it computed (eigenmpm.cli.runSteps). Then report() and
+    a print of the main numbers: returns the summary, with `cpu_time_s` since `cpu0`
+    (time.process_time()) when given."""
     from yade import O
     from .cli import runSteps
     from .engines import callEvery
@@ -717,8 +718,15 @@ def runToDisplacement(pair, out, load, displacement, velocity, rampTime=0.0, dtF
     stopped = runSteps(steps)
     wall = time.time() - start
     info = dict(extra or {}, stopped_early=stopped, imposed_displacement_m=u)
-    return report(pair, out, load, component=component, title=title, wall=wall, sign=sign, band=band,
-                  extra=info, cpu=None if cpu0 is None else time.process_time() - cpu0)
+    summary = report(pair, out, load, component=component, title=title, wall=wall, sign=sign, band=band,
+                     extra=info, cpu=None if cpu0 is None else time.process_time() - cpu0)
+    import json
+    keys = ("mpm_peak_load_N", "dem_peak_load_N", "mpm_displacement_at_peak_m", "dem_displacement_at_peak_m",
+            "mpm_dissipated_energy_J", "dem_dissipated_energy_J", "mpm_eroded", "dem_broken_bonds",
+            "mpm_wall_s", "dem_wall_s", "particles", "steps", "wall_time_s", "cpu_time_s")
+    print(json.dumps({k: summary.get(k) for k in keys}, indent=2, default=float))
+    print("outputs in", out)
+    return summary
 
 
 def report(pair, out, load, component=1, title="", extra=None, wall=None, cpu=None, sign=1.0, band=None):
