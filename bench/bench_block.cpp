@@ -35,6 +35,7 @@
 #include <string>
 #include <vector>
 
+#include "Laws.hpp"
 #include "Solver.hpp"
 
 namespace {
@@ -145,10 +146,13 @@ template <int D, class K> emp::Solver<D, K> makeBlock(const std::array<int, D>& 
     const double h = 0.01, E = 1e7, nu = 0.3, rho = 1000.0;
     const int ppc = 2;
     emp::SolverSettings s;
+    s.massCutoff = 1e-14;
+    s.padding = 3;
+    s.gravity.setZero();
     s.h = h;
     s.ppc = ppc;
     emp::Solver<D, K> solver(s);
-    const int mat = solver.addMaterial(E, nu, rho, false);
+    const int mat = solver.addMaterial(E, nu, rho, false, emp::lawIndex("spectral"));
     const double dx = h / ppc, vol = std::pow(dx, D);
     const double c = solver.materials()[mat].waveSpeed();
     const double amp = ampFraction * c;  // strain amplitude of order amp / c

@@ -28,6 +28,7 @@
 #include <string>
 
 #include "EigenErosion.hpp"
+#include "Laws.hpp"
 #include "Solver.hpp"
 
 namespace {
@@ -88,10 +89,13 @@ Timing interleave(const std::function<void()>& a, const std::function<void()>& b
 Plate plate(double h, bool crack)
 {
     emp::SolverSettings s;
+    s.massCutoff = 1e-14;
+    s.padding = 3;
+    s.gravity.setZero();
     s.h = h;
     s.ppc = 2;
     Plate p(s);
-    const int mat = p.addMaterial(72e9, 0.22, 2440, true);
+    const int mat = p.addMaterial(72e9, 0.22, 2440, true, emp::lawIndex("spectral"));
     const double dx = h / 2, L = 0.1, W = 0.04;
     std::vector<int> top, bottom;
     for (int j = 0; (j + 0.5) * dx < W; ++j)
@@ -152,10 +156,14 @@ int main(int argc, char** argv)
     {
         const double side = std::sqrt(o.blockPoints) * 0.5 * 1e-3;  // dx = 0.5 mm
         emp::SolverSettings s;
+        s.ppc = 2;
+        s.massCutoff = 1e-14;
+        s.padding = 3;
+        s.gravity.setZero();
         s.h = 1e-3;
         Plate a(s), b(s);
         for (Plate* p : {&a, &b}) {
-            const int mat = p->addMaterial(30e9, 0.2, 2400, false);
+            const int mat = p->addMaterial(30e9, 0.2, 2400, false, emp::lawIndex("spectral"));
             for (double y = 0.25e-3; y < side; y += 0.5e-3)
                 for (double x = 0.25e-3; x < side; x += 0.5e-3)
                     p->addPoint(Eigen::Vector3d(x, y, 0),

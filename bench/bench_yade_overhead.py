@@ -8,7 +8,7 @@ Two identical plain elastic scenes (2D uGIMP block, E = 10 MPa, smooth initial v
 boundary condition, no fracture physics), one per path:
   (Y) an MpmEngine in O.engines, advanced by O.run(steps, True): YADE's loop, the PyRunner, the
       engine's Python _action (time, boundary-condition updates) and the C++ step;
-  (B) the bare solver of the same class (eigenmpm._eigenmpm.Solver2GIMP), advanced by calling
+  (B) the bare solver of the same class (eigenmpm._eigenmpm.solvers[(2, 'ugimp')]), advanced by calling
       solver.step(dt, 1) `steps` times from Python (one bound call per step).
   (P) a third identical bare solver stepped by a plain yade.PyRunner in O.engines (command
       '_bare.step(dt, 1)'), to split YADE's own per-iteration cost (loop, PyRunner) from the
@@ -72,9 +72,9 @@ def main():
         mpm.addPoints(pos, mat, vol, vel)
 
         def bareSolver():
-            s = _eigenmpm.Solver2GIMP(h=0.01, ppc=2, massCutoff=1e-14, padding=3)
+            s = _eigenmpm.solvers[(2, 'ugimp')](h=0.01, ppc=2, massCutoff=1e-14, padding=3, gravity=(0, 0, 0))
             s.addPoints(np.ascontiguousarray(pos), np.ascontiguousarray(vel), np.full(len(pos), vol),
-                        s.addMaterial(E=1e7, nu=0.3, rho=1000, planeStress=False))
+                        s.addMaterial(E=1e7, nu=0.3, rho=1000, planeStress=False, split='spectral'))
             return s
 
         bare, viaRunner = bareSolver(), bareSolver()

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "Errors.hpp"
+#include "Laws.hpp"
 
 namespace emp {
 
@@ -83,7 +84,7 @@ int EigenErosion<D>::apply(MaterialPoints<D>& P, const std::vector<ElasticMateri
         const ElasticMaterial& m = materials[P.material[p]];
         before_.push_back(P.stress[p]);
         P.damage[p] = 0.0;
-        P.stress[p] = spectralSplit<D>(P.strain[p], m.lambda, m.mu).sigmaMinus;  // g(0) sigma+ + sigma-
+        P.stress[p] = lawResponse<D>(P.strain[p], m).sigmaMinus;  // g(0) sigma+ + sigma-
         dissipated_ += s.Gc / (2.0 * s.kappa) * P.volume[p];                    // Eq 33
         events_.push_back({p, step, time});
     }

@@ -1,16 +1,28 @@
 // One-dimensional interpolation kernels; the D-dimensional shape function is their tensor
 // product, N_Ip = s(x) s(y) [s(z)] (paper Eq 15). Coordinates are in cell units (xi = x/h), so
 // gradients returned here are per cell length and must be multiplied by 1/h.
+//
+// A kernel declares its own traits; the solver, the phantom-node marking and the tests read
+// them and infer nothing from the support size:
+//   S                     nodes per direction in the support
+//   crackRings            rings of cells around a cut cell whose nodes a crack marks (a point
+//                         in a cell reaches nodes that many cells away)
+//   gradientJumpsAtNodes  whether grad N jumps at a node (a point exactly on a node then sees a
+//                         nonzero gradient on a neighbour it has no weight on)
+//   name                  the user's name of the shape function (MpmEngine(shape=...))
+// To add a kernel: copy one of these structs into a header of its own, give it a new name and
+// add it to EMP_SOLVER_CONFIGURATIONS in Configurations.hpp.
 #pragma once
 #include <cmath>
 
 namespace emp {
 
-enum class ShapeKind { Linear, UGIMP };
-
 /// Standard MPM hat function: support of 2 nodes per direction, gradient jumps at cell faces.
 struct LinearKernel {
     static constexpr int S = 2;  ///< nodes per direction in the support
+    static constexpr int crackRings = 0;
+    static constexpr bool gradientJumpsAtNodes = true;
+    static constexpr const char* name = "linear";
     /// Weights w and derivatives dw of the S nodes starting at the returned base node index.
     static inline int base(double xi) { return static_cast<int>(std::floor(xi)); }
     static inline int eval(double xi, double /*lp*/, double* w, double* dw)
@@ -30,6 +42,9 @@ struct LinearKernel {
 /// The function is the convolution of the hat with a box of width 2 lp, hence C1.
 struct GimpKernel {
     static constexpr int S = 3;
+    static constexpr int crackRings = 1;  ///< the support reaches one cell beyond the point's own
+    static constexpr bool gradientJumpsAtNodes = false;  ///< C1: grad N vanishes with N
+    static constexpr const char* name = "uGIMP";
     static inline double s(double r, double lp, double& ds)
     {
         const double a = std::fabs(r);

@@ -1,28 +1,39 @@
 // The explicit MPM/GIMP solver (paper Section 4.1): update-stress-first central difference.
-// Dimension and shape function are template parameters; each of the four combinations is
-// instantiated once in Solver.cpp. Per-point loops have no virtual call and no allocation.
+// Dimension and shape function are template parameters; the combinations are listed once, in
+// Configurations.hpp. step() is the paper's sequence of stages, each a member function below;
+// per-point loops have no virtual call and no allocation. What varies plugs in without editing
+// the step: the law per material (Laws.hpp), the kernel's traits (ShapeFunction.hpp), grid
+// conditions (GridCondition.hpp), and the scheduling of points over workers (Scheduler.hpp).
 #pragma once
 #include <Eigen/Dense>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <vector>
 
 #include "BoundaryConditions.hpp"
+#include "Configurations.hpp"
 #include "EigenErosion.hpp"
 #include "ElasticMaterial.hpp"
 #include "Grid.hpp"
-#include "PhantomNodes.hpp"
+#include "GridCondition.hpp"
 #include "MaterialPoints.hpp"
+#include "PhantomNodes.hpp"
+#include "Scheduler.hpp"
 #include "ShapeFunction.hpp"
+#include "Stencil.hpp"
+#include "VelocityCondition.hpp"
 
 namespace emp {
 
+/// Every setting of a solver. No defaults here: the caller (the Python engine, which declares
+/// the defaults once, or a test) gives every value, and the constructor validates them.
 struct SolverSettings {
-    double h = 0;          ///< cell size, m
-    int ppc = 2;           ///< points per cell per direction (sets the uGIMP half-width)
-    Eigen::Vector3d gravity = Eigen::Vector3d::Zero();  ///< body force b, m/s2
-    double massCutoff = 1e-14;  ///< nodes lighter than this fraction of the mean point mass are void
-    int padding = 3;           ///< cells added around the points when the grid is sized automatically
+    double h = std::numeric_limits<double>::quiet_NaN();  ///< cell size, m
+    int ppc = 0;  ///< points per cell per direction (sets the uGIMP half-width)
+    Eigen::Vector3d gravity = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());  ///< m/s2
+    double massCutoff = std::numeric_limits<double>::quiet_NaN();  ///< nodes lighter than this fraction of the mean point mass are void
+    int padding = 0;  ///< cells added around the points when the grid is sized automatically
 };
 
 template <int D, class Kernel> class Solver {
@@ -30,13 +41,13 @@ public:
     static_assert(D == 2 || D == 3, "EigenMPM runs in 2D or 3D");
     static constexpr int dim = D;
     static constexpr int S = Kernel::S;
-    /// Cells per colouring strip: strips two apart never share a node (needs W >= S - 1).
-    static constexpr int stripWidth = 4;
+    using Kern = Kernel;
 
     explicit Solver(const SolverSettings& s);
 
     // --- set-up -------------------------------------------------------------------------
-    int addMaterial(double E, double nu, double rho, bool planeStress);
+    /// Adds a material with the law of index `law` in RegisteredLaws (lawIndex(name)).
+    int addMaterial(double E, double nu, double rho, bool planeStress, int law);
     /// Appends a point; returns its id. Velocity in m/s, volume in m^D (2D: area x thickness).
     int addPoint(const Eigen::Vector3d& x, const Eigen::Vector3d& v, double volume, int material);
     /// Grid covering the box [lo, hi] (snapped outwards to multiples of h). Without it the grid
@@ -44,12 +55,15 @@ public:
     void setDomain(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi);
     /// Builds the grid now if it does not exist yet (node positions are needed for BC regions).
     void initialize();
+    /// A velocity condition (VelocityCondition.hpp); returns its id for reaction(id).
     int addVelocityCondition(const std::vector<int>& nodes, const std::vector<int>& points,
                              unsigned mask, const Eigen::Vector3d& velocity, double rampTime);
     void setConditionVelocity(int id, const Eigen::Vector3d& velocity, double rampTime);
+    /// Any grid condition, applied at its points of the step after the ones added before it.
+    void addCondition(std::shared_ptr<GridCondition<D>> c);
     int addTraction(const std::vector<int>& points, const Eigen::Vector3d& traction, double rampTime,
                     double layer);
-    void setGravity(const Eigen::Vector3d& g) { settings_.gravity = g; }
+    void setGravity(const Eigen::Vector3d& g);
     /// Attaches the eigenerosion stage (or detaches it with nullptr). Without it the step has no
     /// fracture work at all.
     void setErosion(std::shared_ptr<EigenErosion<D>> e) { erosion_ = std::move(e); }
@@ -69,7 +83,7 @@ public:
     // --- diagnostics --------------------------------------------------------------------
     double kineticEnergy() const;
     double elasticEnergy() const;  ///< sum V_p (c psi+ + psi-) (Eq 32)
-    Eigen::Vector3d reaction(int id) const { return velocityConditions_.at(id).reaction; }
+    Eigen::Vector3d reaction(int id) const { return velocityConditions_.at(id)->reaction; }
     double time() const { return time_; }
     void setTime(double t) { time_ = t; }
     std::int64_t steps() const { return steps_; }
@@ -80,28 +94,39 @@ public:
     const Grid<D>& grid() const { return grid_; }
     const std::vector<ElasticMaterial>& materials() const { return materials_; }
     const SolverSettings& settings() const { return settings_; }
-    const std::vector<VelocityCondition>& velocityConditions() const { return velocityConditions_; }
+    const std::vector<TractionCondition>& tractions() const { return tractions_; }
+    /// The velocity conditions by id (reaction(id)), and every grid condition in order.
+    const std::vector<std::shared_ptr<VelocityCondition<D>>>& velocityConditions() const { return velocityConditions_; }
+    const std::vector<std::shared_ptr<GridCondition<D>>>& conditions() const { return conditions_; }
+    /// Nodes lighter than this (kg) get no acceleration (massCutoff x mean point mass).
+    double massCutoffAbsolute() const { return massCutoffAbs_; }
+    /// Particle half-width in cells, 1/(2 ppc) (uGIMP, Eq 16 generalised).
+    double halfWidth() const { return lp_; }
 
 private:
-    /// Weights N_Ip and gradients grad N_Ip of one point on its S^D support nodes (Eq 15).
-    /// Computed once per step, in P2G, and reused by the stress/force scatter and by G2P.
-    struct Stencil {
-        static constexpr int NS = D == 2 ? S * S : S * S * S;
-        int base[D];
-        int remap;  ///< offset of the node indices in Grid::remap, or -1 (no crack near)
-        double w[D][S], dw[D][S];
-        void compute(const Vec<D>& x, const Grid<D>& g, double lp);
-        /// Replaces marked nodes by twins across the cracks, using slot `slot` of Grid::remap.
-        void mapAcrossCracks(const Vec<D>& x, Grid<D>& g, const PhantomNodes<D>& ph, int slot);
-        /// Calls f(node index, N, grad N) for every support node, in a fixed order.
-        template <class F> void forEach(const Grid<D>& g, F&& f) const;
-    };
+    using St = Stencil<D, Kernel>;
 
-    template <class F> void scatter(int nThreads, F&& perPoint);
-    void binPoints(int nThreads);
-    void applyVelocityConditions(double t, bool afterForces, double dt);
-    void advectCracks(double dt);
-    bool nearMarked(const Stencil& st) const;
+    // The stages of step(), in order (paper Section 4.1).
+    void checkTimeStep(double dt);
+    void schedulePoints(int nThreads);
+    void markCrackedNodes();
+    void clearGrid(int nThreads);
+    void particleToGrid(int nThreads);
+    void nodalVelocity(int nThreads);
+    void applyConditionsAfterVelocity(double dt);
+    void stressAndInternalForce(double dt, int nThreads);
+    void erode(double dt, int nThreads);
+    void tractionForces();
+    void applyConditionsAfterForces(double dt);
+    void updateGrid(double dt, int nThreads);
+    void gridToParticle(double dt, int nThreads);
+    void transportCracks(double dt);
+
+    // Per-point pieces of the fused stress/force pass.
+    void updateStress(int p, const St& st, double dt);
+    void scatterInternalForce(int p, const St& st, const Vec<D>& gravity);
+    /// The stencil of one point computed on its own (serial stages: erosion, tractions).
+    St stencilOf(int p);
 
     SolverSettings settings_;
     double lp_;  ///< particle half-width in cells, 1/(2 ppc)
@@ -114,18 +139,13 @@ private:
     std::shared_ptr<EigenErosion<D>> erosion_;
     PhantomNodes<D> phantom_;
     int markedLo_[D] = {}, markedHi_[D] = {};  ///< box of the marked nodes, node indices
-    std::vector<VelocityCondition> velocityConditions_;
+    std::vector<std::shared_ptr<VelocityCondition<D>>> velocityConditions_;
+    std::vector<std::shared_ptr<GridCondition<D>>> conditions_;
     std::vector<TractionCondition> tractions_;
-    std::vector<int> order_, stripStart_;  ///< points sorted (stably) by strip
-    std::vector<int> stripOf_, stripFill_;
-    std::vector<Stencil> stencil_;  ///< stencil_[k] is that of point order_[k] in this step
+    Scheduler<D> schedule_;
+    std::vector<St> stencil_;  ///< stencil_[k] is that of point schedule_.order()[k] in this step
     double time_ = 0, maxSpeed_ = 0;
     std::int64_t steps_ = 0;
 };
-
-using Solver2Linear = Solver<2, LinearKernel>;
-using Solver2GIMP = Solver<2, GimpKernel>;
-using Solver3Linear = Solver<3, LinearKernel>;
-using Solver3GIMP = Solver<3, GimpKernel>;
 
 }  // namespace emp

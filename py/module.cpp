@@ -4,11 +4,13 @@
 // in YADE engines.
 #include <boost/python.hpp>
 #include <boost/python/numpy.hpp>
+#include <cctype>
 #include <string>
 #include <vector>
 
 #include "EigenErosion.hpp"
 #include "Errors.hpp"
+#include "Laws.hpp"
 #include "Solver.hpp"
 
 namespace bp = boost::python;
@@ -62,6 +64,18 @@ np::ndarray zeros(long rows, int cols, int cols2 = 0)
     return np::zeros(shape, np::dtype::get_builtin<double>());
 }
 
+/// Index of the registered law called `split`; ValueError naming the allowed names otherwise.
+int lawId(const std::string& split)
+{
+    const int id = lawIndex(split);
+    if (id < 0) {
+        std::string names;
+        for (const auto& n : lawNames()) names += (names.empty() ? "'" : ", '") + n + "'";
+        require(false, "split", "'" + split + "'", names);
+    }
+    return id;
+}
+
 /// Releases the GIL while the core computes, so YADE's other threads keep running.
 struct NoGil {
     PyThreadState* state = PyEval_SaveThread();
@@ -100,13 +114,14 @@ template <int D> struct BindErosion {
 template <class Sv> struct Bind {
     static constexpr int D = Sv::dim;
 
-    static std::shared_ptr<Sv> make(double h, int ppc, double massCutoff, int padding)
+    static std::shared_ptr<Sv> make(double h, int ppc, double massCutoff, int padding, bp::object gravity)
     {
         SolverSettings s;
         s.h = h;
         s.ppc = ppc;
         s.massCutoff = massCutoff;
         s.padding = padding;
+        s.gravity = toVec3(gravity, "gravity");
         return std::make_shared<Sv>(s);
     }
     static int addPoints(Sv& s, np::ndarray pos, np::ndarray vel, np::ndarray vol, int material)
@@ -153,8 +168,8 @@ template <class Sv> struct Bind {
     static np::ndarray velocities(const Sv& s) { return vectors(s, [&](long p) { return s.points().v[p]; }); }
 
     /// 3x3 tensors; in 2D the out-of-plane component follows the material's plane condition:
-    /// plane strain has eps_zz = 0 and sigma_zz = c lambda<tr>+ + lambda<tr>-; plane stress has
-    /// sigma_zz = 0 and eps_zz = -nu/(1-nu) (eps_xx + eps_yy).
+    /// plane strain has eps_zz = 0 and the law's sigma_zz (Law.hpp: outOfPlaneStress); plane
+    /// stress has sigma_zz = 0 and eps_zz = -nu/(1-nu) (eps_xx + eps_yy).
     static np::ndarray tensors(const Sv& s, bool stress)
     {
         const auto& P = s.points();
@@ -167,10 +182,11 @@ template <class Sv> struct Bind {
                 for (int j = 0; j < D; ++j) out[9 * p + 3 * i + j] = t(i, j);
             if constexpr (D == 2) {
                 const ElasticMaterial& m = s.materials()[P.material[p]];
-                const double tr = P.strain[p].trace();
                 double zz = 0;
-                if (stress && !m.planeStress) zz = m.lambda * (P.damage[p] * std::max(tr, 0.0) + std::min(tr, 0.0));
-                if (!stress && m.planeStress) zz = -m.nu / (1.0 - m.nu) * tr;
+                if (stress)
+                    withLaw(m.law, [&](auto law) { zz = decltype(law)::outOfPlaneStress(P.strain[p], P.damage[p], m); });
+                else if (m.planeStress)
+                    zz = -m.nu / (1.0 - m.nu) * P.strain[p].trace();
                 out[9 * p + 8] = zz;
             }
         }
@@ -274,6 +290,10 @@ template <class Sv> struct Bind {
         for (int I : s.phantomNodes().markedNodes()) l.append(I);
         return l;
     }
+    static int addMaterial(Sv& s, double E, double nu, double rho, bool planeStress, const std::string& split)
+    {
+        return s.addMaterial(E, nu, rho, planeStress, lawId(split));
+    }
     static bp::dict materialInfo(const Sv& s, int id)
     {
         require(id >= 0 && id < static_cast<int>(s.materials().size()), "material (id)", id, "an existing id");
@@ -286,6 +306,7 @@ template <class Sv> struct Bind {
         d["lambda"] = m.lambda;
         d["mu"] = m.mu;
         d["waveSpeed"] = m.waveSpeed();
+        d["split"] = lawNames()[m.law];
         return d;
     }
 
@@ -293,8 +314,8 @@ template <class Sv> struct Bind {
     {
         bp::class_<Sv, std::shared_ptr<Sv>, boost::noncopyable>(name, bp::no_init)
             .def("__init__", bp::make_constructor(&make, bp::default_call_policies(),
-                                                  (bp::arg("h"), bp::arg("ppc") = 2, bp::arg("massCutoff") = 1e-14,
-                                                   bp::arg("padding") = 3)))
+                                                  (bp::arg("h"), bp::arg("ppc"), bp::arg("massCutoff"),
+                                                   bp::arg("padding"), bp::arg("gravity"))))
             .add_property("dim", +[](const Sv&) { return D; })
             .add_property("time", &Sv::time, &Sv::setTime)
             .add_property("steps", &Sv::steps)
@@ -302,7 +323,7 @@ template <class Sv> struct Bind {
             .add_property("numNodes", +[](const Sv& s) { return s.grid().numNodes(); })
             .add_property("initialized", &Sv::initialized)
             .add_property("gravity", &gravity, &setGravity)
-            .def("addMaterial", &Sv::addMaterial, (bp::arg("E"), bp::arg("nu"), bp::arg("rho"), bp::arg("planeStress") = false))
+            .def("addMaterial", &addMaterial, (bp::arg("E"), bp::arg("nu"), bp::arg("rho"), bp::arg("planeStress"), bp::arg("split")))
             .def("materialInfo", &materialInfo)
             .def("addPoints", &addPoints, (bp::arg("positions"), bp::arg("velocities"), bp::arg("volumes"), bp::arg("material")))
             .def("setDomain", &setDomain)
@@ -348,13 +369,30 @@ BOOST_PYTHON_MODULE(_eigenmpm)
 {
     np::initialize();
     bp::def("checkElasticMaterial",
-            +[](double E, double nu, double rho, bool planeStress) { ElasticMaterial::make(E, nu, rho, planeStress, 3); },
-            (bp::arg("E"), bp::arg("nu"), bp::arg("rho"), bp::arg("planeStress") = false),
-            "Raises ValueError naming the first of E, nu, rho outside its allowed range.");
+            +[](double E, double nu, double rho, bool planeStress, const std::string& split) {
+                ElasticMaterial::make(E, nu, rho, planeStress, 3, lawId(split));
+            },
+            (bp::arg("E"), bp::arg("nu"), bp::arg("rho"), bp::arg("planeStress"), bp::arg("split")),
+            "Raises ValueError naming the first of E, nu, rho, split outside its allowed range.");
+    bp::def("lawNames", +[] {
+        bp::list l;
+        for (const auto& n : lawNames()) l.append(n);
+        return l;
+    }, "Names of the registered constitutive laws (ElasticMaterial(split=...)), in index order.");
     BindErosion<2>::expose("Erosion2");
     BindErosion<3>::expose("Erosion3");
-    Bind<Solver2Linear>::expose("Solver2Linear");
-    Bind<Solver2GIMP>::expose("Solver2GIMP");
-    Bind<Solver3Linear>::expose("Solver3Linear");
-    Bind<Solver3GIMP>::expose("Solver3GIMP");
+    // One class per configuration (Configurations.hpp), named Solver<D><kernel name>, and the
+    // dict solvers[(dim, kernel name in lower case)] = class for the engines.
+    bp::dict solvers;
+#define EMP_EXPOSE(D, K)                                                                  \
+    {                                                                                     \
+        const std::string name = std::string("Solver") + std::to_string(D) + K::name;     \
+        Bind<Solver<D, K>>::expose(name.c_str());                                         \
+        std::string key = K::name;                                                        \
+        for (auto& ch : key) ch = static_cast<char>(std::tolower(ch));                    \
+        solvers[bp::make_tuple(D, key)] = bp::scope().attr(name.c_str());                 \
+    }
+    EMP_SOLVER_CONFIGURATIONS(EMP_EXPOSE)
+#undef EMP_EXPOSE
+    bp::scope().attr("solvers") = solvers;
 }

@@ -86,8 +86,8 @@ def _vector(t):
         return tuple(t)
 
 
-_SOLVERS = {(2, "linear"): _eigenmpm.Solver2Linear, (2, "ugimp"): _eigenmpm.Solver2GIMP,
-            (3, "linear"): _eigenmpm.Solver3Linear, (3, "ugimp"): _eigenmpm.Solver3GIMP}
+# (dim, shape name in lower case) -> solver class, for every configuration the core is built for.
+_SOLVERS = dict(_eigenmpm.solvers)
 
 
 @declare
@@ -139,8 +139,8 @@ class MpmEngine(PyRunner):
             raise ValueError(f"EigenMPM: thickness = {self.thickness!r} is invalid; allowed: thickness > 0")
         self.solver = _SOLVERS[(self.dim, shape)](h=float(self.h), ppc=int(self.ppc),
                                                   massCutoff=float(self.massCutoff),
-                                                  padding=int(self.padding))
-        self.solver.gravity = vec3(self.gravity, "gravity")
+                                                  padding=int(self.padding),
+                                                  gravity=vec3(self.gravity, "gravity"))
         if self.domain is not None:
             lo, hi = self.domain
             self.solver.setDomain(vec3(lo, "domain lo"), vec3(hi, "domain hi"))
@@ -159,7 +159,8 @@ class MpmEngine(PyRunner):
         key = id(mat)
         if key not in self._materials:
             self._materials[key] = (mat, self.solver.addMaterial(float(mat.E), float(mat.nu),
-                                                                 float(mat.rho), bool(mat.planeStress)))
+                                                                 float(mat.rho), bool(mat.planeStress),
+                                                                 str(mat.split)))
         return self._materials[key][1]
 
     def addPoints(self, positions, material, volumes, velocities=None):

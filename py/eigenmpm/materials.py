@@ -5,8 +5,9 @@ from .params import Param, apply, declare
 
 @declare
 class ElasticMaterial:
-    """Isotropic linear elastic material with the spectral tension/compression split
-    (paper Eqs 2-7). In 2D it is plane strain unless ``planeStress`` is set.
+    """Isotropic linear elastic material with a tension/compression split of its strain energy:
+    the paper's spectral split (Eqs 2-7) by default, or the volumetric-deviatoric split, or none.
+    In 2D it is plane strain unless ``planeStress`` is set.
 
     Example::
 
@@ -18,6 +19,9 @@ class ElasticMaterial:
         Param("nu", 0.0, "", "Poisson's ratio; -1 < nu < 0.5"),
         Param("rho", None, "kg/m3", "mass density; rho > 0"),
         Param("planeStress", False, "", "2D only: plane stress instead of plane strain"),
+        Param("split", "spectral", "", "tension/compression split of the strain energy (which part "
+                                       "drives fracture): 'spectral' (the paper's, Eqs 2-7), "
+                                       "'volumetric' (Amor et al. 2009) or 'none'; see doc/fracture.md"),
     )
 
     def __init__(self, **kw):
@@ -25,8 +29,9 @@ class ElasticMaterial:
         for name in ("E", "rho"):
             if getattr(self, name) is None:
                 raise TypeError(f"ElasticMaterial: parameter {name} is required")
-        _eigenmpm.checkElasticMaterial(float(self.E), float(self.nu), float(self.rho), bool(self.planeStress))
+        _eigenmpm.checkElasticMaterial(float(self.E), float(self.nu), float(self.rho), bool(self.planeStress),
+                                       str(self.split))
 
     def __repr__(self):
         return (f"ElasticMaterial(E={self.E!r}, nu={self.nu!r}, rho={self.rho!r}, "
-                f"planeStress={self.planeStress!r})")
+                f"planeStress={self.planeStress!r}, split={self.split!r})")

@@ -15,14 +15,14 @@ using emptest::Vec;
 /// velocities, gravity, a fixed base and a prescribed velocity on top: stresses of both signs.
 template <int D, class K> Solver<D, K> makeScene()
 {
-    emp::SolverSettings st;
+    emp::SolverSettings st = emptest::typicalSettings();
     st.h = 0.05;
     st.ppc = 2;
     st.gravity = Eigen::Vector3d(0.3, -9.81, 0.0);
     if (D == 3) st.gravity = Eigen::Vector3d(0.3, 0.2, -9.81);
     Solver<D, K> s(st);
-    const int mat = s.addMaterial(1e6, 0.3, 1000, D == 2);
-    const int soft = s.addMaterial(3e5, 0.1, 800, D == 2);
+    const int mat = s.addMaterial(1e6, 0.3, 1000, D == 2, emp::lawIndex("spectral"));
+    const int soft = s.addMaterial(3e5, 0.1, 800, D == 2, emp::lawIndex("spectral"));
     std::array<int, D> lo, hi;
     lo.fill(2);
     hi.fill(D == 2 ? 14 : 6);

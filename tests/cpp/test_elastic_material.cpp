@@ -7,7 +7,6 @@
 namespace {
 
 using emp::ElasticMaterial;
-using emp::spectralSplit;
 using emptest::hooke;
 using emptest::Mat;
 using emptest::Vec;
@@ -18,7 +17,7 @@ double psiTotal(const Mat<3>& e, double l, double m) { return 0.5 * l * e.trace(
 TEST(ElasticMaterial, LameConstantsGiveHookesLawIn3D)
 {
     const double E = 2.5e10, nu = 0.27;
-    const ElasticMaterial m = ElasticMaterial::make(E, nu, 2400, false, 3);
+    const ElasticMaterial m = ElasticMaterial::make(E, nu, 2400, false, 3, emp::lawIndex("spectral"));
     EXPECT_FALSE(m.planeStress);
     // Uniaxial stress: strain (e, -nu e, -nu e) gives sigma = (E e, 0, 0).
     const double e = 1e-4;
@@ -32,7 +31,7 @@ TEST(ElasticMaterial, LameConstantsGiveHookesLawIn3D)
     // Dilatational wave speed sqrt(E (1 - nu) / ((1 + nu)(1 - 2 nu) rho)).
     EXPECT_NEAR(m.waveSpeed(), std::sqrt(E * (1 - nu) / ((1 + nu) * (1 - 2 * nu) * 2400)), 1e-9 * m.waveSpeed());
     // planeStress is meaningless in 3D and must be ignored.
-    const ElasticMaterial m3 = ElasticMaterial::make(E, nu, 2400, true, 3);
+    const ElasticMaterial m3 = ElasticMaterial::make(E, nu, 2400, true, 3, emp::lawIndex("spectral"));
     EXPECT_FALSE(m3.planeStress);
     EXPECT_DOUBLE_EQ(m3.lambda, m.lambda);
 }
@@ -40,8 +39,8 @@ TEST(ElasticMaterial, LameConstantsGiveHookesLawIn3D)
 TEST(ElasticMaterial, PlaneStrainAndPlaneStressLaws)
 {
     const double E = 7e10, nu = 0.33, e = 2e-4;
-    const ElasticMaterial strain = ElasticMaterial::make(E, nu, 2700, false, 2);
-    const ElasticMaterial stress = ElasticMaterial::make(E, nu, 2700, true, 2);
+    const ElasticMaterial strain = ElasticMaterial::make(E, nu, 2700, false, 2, emp::lawIndex("spectral"));
+    const ElasticMaterial stress = ElasticMaterial::make(E, nu, 2700, true, 2, emp::lawIndex("spectral"));
     EXPECT_FALSE(strain.planeStress);
     EXPECT_TRUE(stress.planeStress);
     // Plane strain, eps = (e, 0): sigma_xx = E (1 - nu) e / ((1 + nu)(1 - 2 nu)), sigma_yy = nu/(1-nu) sigma_xx.
@@ -67,12 +66,21 @@ template <class Dim> struct SplitTest : ::testing::Test {};
 using Dims = ::testing::Types<std::integral_constant<int, 2>, std::integral_constant<int, 3>>;
 TYPED_TEST_SUITE(SplitTest, Dims);
 
+/// The spectral split of a material with Lame constants l and m.
+template <int D> emp::LawResponse<D> split(const Mat<D>& eps, double l, double m)
+{
+    emp::ElasticMaterial mat;
+    mat.lambda = l;
+    mat.mu = m;
+    return emp::SpectralSplit::response<D>(eps, mat);
+}
+
 /// Random Lame constants covering negative lambda (nu < 0) and plane stress.
 std::pair<double, double> randomLame(std::mt19937& rng, int dim)
 {
     std::uniform_real_distribution<double> unu(-0.9, 0.49), uE(0.5, 3.0);
     std::uniform_int_distribution<int> coin(0, 1);
-    const ElasticMaterial m = ElasticMaterial::make(uE(rng), unu(rng), 1.0, coin(rng) == 1, dim);
+    const ElasticMaterial m = ElasticMaterial::make(uE(rng), unu(rng), 1.0, coin(rng) == 1, dim, emp::lawIndex("spectral"));
     return {m.lambda, m.mu};
 }
 
@@ -83,7 +91,7 @@ TYPED_TEST(SplitTest, PartsAddUpToTheUnsplitLawAndAreNonNegative)
     for (int i = 0; i < 3000; ++i) {
         const auto [l, m] = randomLame(rng, D);
         const Mat<D> eps = emptest::randomSymmetric<D>(rng, i % 2 ? 1e-3 : 1.0);
-        const auto s = spectralSplit<D>(eps, l, m);
+        const auto s = split<D>(eps, l, m);
         const double psi = psiTotal(eps, l, m);
         const double scale = (std::fabs(l) + m) * eps.squaredNorm();
         EXPECT_NEAR(s.psiPlus + s.psiMinus, psi, 1e-12 * scale) << eps;
@@ -111,11 +119,11 @@ TYPED_TEST(SplitTest, CompressionHasNoTensilePartAndTensionNoCompressivePart)
         for (int d = 0; d < D; ++d) k[d] = u(rng) * 1e-3;
         const Mat<D> tension = R * k.asDiagonal() * R.transpose();
         const Mat<D> compression = -tension;
-        const auto c = spectralSplit<D>(compression, l, m);
+        const auto c = split<D>(compression, l, m);
         EXPECT_EQ(c.psiPlus, 0.0);
         EXPECT_EQ(c.sigmaPlus.cwiseAbs().maxCoeff(), 0.0) << c.sigmaPlus;
         EXPECT_GT(c.psiMinus, 0.0);
-        const auto t = spectralSplit<D>(tension, l, m);
+        const auto t = split<D>(tension, l, m);
         EXPECT_EQ(t.psiMinus, 0.0);
         EXPECT_EQ(t.sigmaMinus.cwiseAbs().maxCoeff(), 0.0) << t.sigmaMinus;
         EXPECT_GT(t.psiPlus, 0.0);
@@ -131,7 +139,7 @@ template <int D> Mat<D> numericalStress(const Mat<D>& eps, double l, double m, b
             Mat<D> dir = Mat<D>::Zero();
             dir(i, j) += 0.5;
             dir(j, i) += 0.5;
-            const auto a = spectralSplit<D>(eps + t * dir, l, m), b = spectralSplit<D>(eps - t * dir, l, m);
+            const auto a = split<D>(eps + t * dir, l, m), b = split<D>(eps - t * dir, l, m);
             out(i, j) = plus ? (a.psiPlus - b.psiPlus) / (2 * t) : (a.psiMinus - b.psiMinus) / (2 * t);
         }
     return out;
@@ -151,7 +159,7 @@ TYPED_TEST(SplitTest, StressPartsAreDerivativesOfEnergyParts)
         k[1] = -u(rng);
         if (D == 3) k[D - 1] = (i % 2 ? 1 : -1) * (2.0 + u(rng));
         const Mat<D> eps = R * k.asDiagonal() * R.transpose();
-        const auto s = spectralSplit<D>(eps, l, m);
+        const auto s = split<D>(eps, l, m);
         const double tol = 1e-7 * (std::fabs(l) + m) * eps.norm();
         EXPECT_LT((numericalStress<D>(eps, l, m, true, 1e-6) - s.sigmaPlus).norm(), tol)
             << "eps =\n" << eps << "\nsigma+ =\n" << s.sigmaPlus;
@@ -168,8 +176,8 @@ TYPED_TEST(SplitTest, SplitIsObjective)
         const auto [l, m] = randomLame(rng, D);
         const Mat<D> eps = emptest::randomSymmetric<D>(rng, 1.0);
         const Mat<D> R = emptest::randomRotation<D>(rng);
-        const auto a = spectralSplit<D>(eps, l, m);
-        const auto b = spectralSplit<D>(Mat<D>(R * eps * R.transpose()), l, m);
+        const auto a = split<D>(eps, l, m);
+        const auto b = split<D>(Mat<D>(R * eps * R.transpose()), l, m);
         const double tol = 1e-11 * (std::fabs(l) + m) * eps.norm();
         EXPECT_LT((R * a.sigmaPlus * R.transpose() - b.sigmaPlus).norm(), tol);
         EXPECT_LT((R * a.sigmaMinus * R.transpose() - b.sigmaMinus).norm(), tol);
@@ -188,7 +196,7 @@ template <int D> void checkKnownSplit(const Vec<D>& k, const Mat<D>& R, double l
     const Mat<D> sigMinus = l * trm * Mat<D>::Identity() + 2 * m * (eps - epsPlus);
     const double psiPlus = 0.5 * l * trp * trp + m * kp.squaredNorm();
     const double psiMinus = 0.5 * l * trm * trm + m * km.squaredNorm();
-    const auto s = spectralSplit<D>(eps, l, m);
+    const auto s = split<D>(eps, l, m);
     const double scale = (std::fabs(l) + m) * k.norm();
     // Round-off level: an eigen-decomposition of a symmetric 3x3 matrix is accurate to ~1e-15
     // relative, repeated eigenvalues included (the projector on a repeated pair is well defined).

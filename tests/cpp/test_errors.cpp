@@ -20,7 +20,7 @@ using emptest::Vec;
 
 emp::SolverSettings settings(double h = 0.1, int ppc = 2)
 {
-    emp::SolverSettings s;
+    emp::SolverSettings s = emptest::typicalSettings();
     s.h = h;
     s.ppc = ppc;
     return s;
@@ -29,40 +29,40 @@ emp::SolverSettings settings(double h = 0.1, int ppc = 2)
 TEST(Errors, YoungsModulusMustBePositive)
 {
     for (double E : {0.0, -5.0}) {
-        const std::string m = messageOf<ParameterError>([&] { ElasticMaterial::make(E, 0.3, 1000, false, 3); });
+        const std::string m = messageOf<ParameterError>([&] { ElasticMaterial::make(E, 0.3, 1000, false, 3, emp::lawIndex("spectral")); });
         EXPECT_MESSAGE_HAS(m, "E (Young's modulus");
         EXPECT_MESSAGE_HAS(m, "= " + std::string(E == 0 ? "0" : "-5"));
     }
     Solver<2, GimpKernel> s(settings());
-    const std::string m = messageOf<ParameterError>([&] { s.addMaterial(-2.5e9, 0.3, 1000, false); });
+    const std::string m = messageOf<ParameterError>([&] { s.addMaterial(-2.5e9, 0.3, 1000, false, emp::lawIndex("spectral")); });
     EXPECT_MESSAGE_HAS(m, "E (Young's modulus");
     EXPECT_MESSAGE_HAS(m, "-2500000000");
     EXPECT_TRUE(s.materials().empty());
-    EXPECT_NO_THROW(ElasticMaterial::make(1e-3, 0.3, 1000, false, 3));
+    EXPECT_NO_THROW(ElasticMaterial::make(1e-3, 0.3, 1000, false, 3, emp::lawIndex("spectral")));
 }
 
 TEST(Errors, PoissonRatioMustLieBetweenMinusOneAndOneHalf)
 {
     for (double nu : {-1.0, -1.5, 0.5, 0.7}) {
         for (int dim : {2, 3}) {
-            const std::string m = messageOf<ParameterError>([&] { ElasticMaterial::make(1e9, nu, 1000, dim == 2, dim); });
+            const std::string m = messageOf<ParameterError>([&] { ElasticMaterial::make(1e9, nu, 1000, dim == 2, dim, emp::lawIndex("spectral")); });
             EXPECT_MESSAGE_HAS(m, "nu (Poisson's ratio)");
             std::ostringstream v;
             v << "= " << nu;
             EXPECT_MESSAGE_HAS(m, v.str());
         }
     }
-    const std::string m = messageOf<ParameterError>([&] { ElasticMaterial::make(1e9, std::nan(""), 1000, false, 3); });
+    const std::string m = messageOf<ParameterError>([&] { ElasticMaterial::make(1e9, std::nan(""), 1000, false, 3, emp::lawIndex("spectral")); });
     EXPECT_MESSAGE_HAS(m, "nu (Poisson's ratio)");
-    EXPECT_NO_THROW(ElasticMaterial::make(1e9, -0.99, 1000, false, 3));
-    EXPECT_NO_THROW(ElasticMaterial::make(1e9, 0.49, 1000, false, 3));
+    EXPECT_NO_THROW(ElasticMaterial::make(1e9, -0.99, 1000, false, 3, emp::lawIndex("spectral")));
+    EXPECT_NO_THROW(ElasticMaterial::make(1e9, 0.49, 1000, false, 3, emp::lawIndex("spectral")));
 }
 
 TEST(Errors, DensityMustBePositive)
 {
     for (double rho : {0.0, -1000.0}) {
         Solver<3, GimpKernel> s(settings());
-        const std::string m = messageOf<ParameterError>([&] { s.addMaterial(1e9, 0.2, rho, false); });
+        const std::string m = messageOf<ParameterError>([&] { s.addMaterial(1e9, 0.2, rho, false, emp::lawIndex("spectral")); });
         EXPECT_MESSAGE_HAS(m, "rho (density");
         EXPECT_MESSAGE_HAS(m, rho == 0 ? "= 0" : "= -1000");
     }
@@ -88,7 +88,7 @@ TEST(Errors, PointsPerCellAndCellSizeMustBeValid)
 /// A small 2D block at rest.
 template <class Sv> void addSmallBlock(Sv& s)
 {
-    const int mat = s.addMaterial(1e7, 0.25, 1500, false);
+    const int mat = s.addMaterial(1e7, 0.25, 1500, false, emp::lawIndex("spectral"));
     constexpr int D = Sv::dim;
     std::array<int, D> lo, hi;
     lo.fill(0);
@@ -179,7 +179,7 @@ TEST(Errors, PointOutsideAGivenDomain)
 template <int D, class K> Solver<D, K> isolatedPoints()
 {
     Solver<D, K> s(settings());
-    const int mat = s.addMaterial(1e7, 0.25, 1500, false);
+    const int mat = s.addMaterial(1e7, 0.25, 1500, false, emp::lawIndex("spectral"));
     for (int p = 0; p < 4; ++p) {
         Vec<D> x = Vec<D>::Constant(0.55), v = Vec<D>::Constant(0.1 * (p + 1));
         x[0] += 0.4 * p;

@@ -5,11 +5,13 @@
 #include <Eigen/Dense>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <random>
 #include <string>
 #include <vector>
 
 #include "Errors.hpp"
+#include "Laws.hpp"
 #include "Solver.hpp"
 
 namespace emptest {
@@ -17,14 +19,36 @@ namespace emptest {
 using emp::Mat;
 using emp::Vec;
 
-/// A (dimension, shape function) pair for typed tests, and the four the solver is built for.
+/// A (dimension, shape function) pair for typed tests.
 template <int D_, class K_> struct Config {
     static constexpr int D = D_;
     using K = K_;
     using S = emp::Solver<D_, K_>;
 };
-using AllSolvers = ::testing::Types<Config<2, emp::LinearKernel>, Config<2, emp::GimpKernel>,
-                                    Config<3, emp::LinearKernel>, Config<3, emp::GimpKernel>>;
+
+/// ::testing::Types of a TypeList, each element turned into T<element>.
+template <class L, template <class> class T> struct GTestTypes;
+template <class... E, template <class> class T> struct GTestTypes<emp::TypeList<E...>, T> {
+    using type = ::testing::Types<typename T<E>::type...>;
+};
+template <class C> struct ConfigOf {
+    using type = Config<C::D, typename C::Kernel>;
+};
+/// Every configuration the product is built for (Configurations.hpp): the typed tests' list.
+using AllSolvers = typename GTestTypes<emp::Configurations, ConfigOf>::type;
+
+/// Settings of a typical test scene: 2 points per cell, the engine's mass cut-off and padding,
+/// no gravity; h is set by each test (the solver takes no defaults of its own).
+inline emp::SolverSettings typicalSettings(double h = std::numeric_limits<double>::quiet_NaN(), int ppc = 2)
+{
+    emp::SolverSettings s;
+    s.h = h;
+    s.ppc = ppc;
+    s.massCutoff = 1e-14;
+    s.padding = 3;
+    s.gravity.setZero();
+    return s;
+}
 
 /// Pads a D-vector to the 3-vector the Solver interface takes.
 template <int D> Eigen::Vector3d to3(const Vec<D>& v)

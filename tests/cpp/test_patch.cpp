@@ -47,11 +47,11 @@ template <int D, class K>
 void runPrescribedGradient(const Mat<D>& A, double nu, bool planeStress, int ppc, const std::string& what,
                            Mat<D>* stressOut = nullptr, Mat<D>* strainOut = nullptr)
 {
-    emp::SolverSettings st;
+    emp::SolverSettings st = emptest::typicalSettings();
     st.h = kH;
     st.ppc = ppc;
     Solver<D, K> s(st);
-    const int mat = s.addMaterial(kE, nu, kRho, planeStress);
+    const int mat = s.addMaterial(kE, nu, kRho, planeStress, emp::lawIndex("spectral"));
     std::array<int, D> lo, hi;
     lo.fill(3);
     hi.fill(D == 2 ? 9 : 6);
@@ -142,12 +142,12 @@ TYPED_TEST(PatchTest, LinearPointVelocityFieldIsReproducedInTheInterior)
     A(1, 0) = 0.4;
     for (bool planeStress : {false, true}) {
         if (D == 3 && planeStress) continue;
-        emp::SolverSettings st;
+        emp::SolverSettings st = emptest::typicalSettings();
         st.h = kH;
         st.ppc = 2;
         Solver<D, K> s(st);
         const double nu = 0.3;
-        const int mat = s.addMaterial(kE, nu, kRho, planeStress);
+        const int mat = s.addMaterial(kE, nu, kRho, planeStress, emp::lawIndex("spectral"));
         const int lo = 2, hi = D == 2 ? 14 : 10;
         std::array<int, D> clo, chi;
         clo.fill(lo);

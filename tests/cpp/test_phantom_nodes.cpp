@@ -578,10 +578,10 @@ template <int D> std::vector<Eigen::Vector3d> crackAcross(double xc, const std::
 TYPED_TEST(PhantomSolverTest, NoCracksNoTwins)
 {
     constexpr int D = TypeParam::D;
-    emp::SolverSettings st;
+    emp::SolverSettings st = emptest::typicalSettings();
     st.h = kH;
     typename TypeParam::S s(st);
-    const int mat = s.addMaterial(kE, kNu, kRho, false);
+    const int mat = s.addMaterial(kE, kNu, kRho, false, emp::lawIndex("spectral"));
     std::array<int, D> lo, hi;
     lo.fill(2);
     hi.fill(5);
@@ -598,12 +598,12 @@ TYPED_TEST(PhantomSolverTest, MomentumConservedWithCracks)
 {
     // A free block with an edge crack and an interior crack, random velocities, no cut-off.
     constexpr int D = TypeParam::D;
-    emp::SolverSettings st;
+    emp::SolverSettings st = emptest::typicalSettings();
     st.h = kH;
     st.ppc = 2;
     st.massCutoff = 0;
     typename TypeParam::S s(st);
-    const int mat = s.addMaterial(kE, kNu, kRho, false);
+    const int mat = s.addMaterial(kE, kNu, kRho, false, emp::lawIndex("spectral"));
     std::array<int, D> lo, hi;
     lo.fill(2);
     hi.fill(D == 2 ? 12 : 7);
@@ -661,10 +661,10 @@ TYPED_TEST(PhantomSolverTest, FacesSeparateWithoutStress)
                              " of the gap between columns, cracked " + std::to_string(cracked));
                 // Middle columns of points at mid -+ 0.25 cells (ppc 2), shifted.
                 const double xc = (0.5 * (lo[0] + hi[0]) - 0.25 + shift + 0.5 * f) * kH;
-                emp::SolverSettings st;
+                emp::SolverSettings st = emptest::typicalSettings();
                 st.h = kH;
                 typename TypeParam::S s(st);
-                const int mat = s.addMaterial(kE, kNu, kRho, false);
+                const int mat = s.addMaterial(kE, kNu, kRho, false, emp::lawIndex("spectral"));
                 emptest::addBlock<D>(s, lo, hi, mat);
                 auto& P = s.points();
                 for (std::size_t p = 0; p < P.size(); ++p) {
@@ -712,10 +712,10 @@ TYPED_TEST(PhantomSolverTest, CrackTranslatesWithTheBody)
     // A block with an edge crack (outer vertices 0.6 cell outside the block) and an interior
     // crack moves 4 cells diagonally: the cracks move by exactly v t, no stress appears.
     constexpr int D = TypeParam::D;
-    emp::SolverSettings st;
+    emp::SolverSettings st = emptest::typicalSettings();
     st.h = kH;
     typename TypeParam::S s(st);
-    const int mat = s.addMaterial(kE, kNu, kRho, false);
+    const int mat = s.addMaterial(kE, kNu, kRho, false, emp::lawIndex("spectral"));
     std::array<int, D> lo, hi;
     lo.fill(4);
     hi.fill(D == 2 ? 12 : 8);
@@ -758,10 +758,10 @@ TYPED_TEST(PhantomSolverTest, CrackReachingFarOutsideTheBodyTranslatesWithIt)
     // cells beyond the grid: they must still move with the body, or the crack turns and cuts the
     // body elsewhere.
     constexpr int D = TypeParam::D;
-    emp::SolverSettings st;
+    emp::SolverSettings st = emptest::typicalSettings();
     st.h = kH;
     typename TypeParam::S s(st);
-    const int mat = s.addMaterial(kE, kNu, kRho, false);
+    const int mat = s.addMaterial(kE, kNu, kRho, false, emp::lawIndex("spectral"));
     std::array<int, D> lo, hi;
     lo.fill(4);
     hi.fill(D == 2 ? 12 : 8);

@@ -8,12 +8,12 @@ using emptest::Vec;
 
 TEST(Smoke3D, GimpColumnWithFixedBaseStaysFinite)
 {
-    emp::SolverSettings st;
+    emp::SolverSettings st = emptest::typicalSettings();
     st.h = 0.05;
     st.ppc = 2;
     st.gravity = Eigen::Vector3d(0, 0, -9.81);
-    emp::Solver3GIMP s(st);
-    const int mat = s.addMaterial(5e6, 0.2, 1200, false);
+    emp::Solver<3, emp::GimpKernel> s(st);
+    const int mat = s.addMaterial(5e6, 0.2, 1200, false, emp::lawIndex("spectral"));
     emptest::addBlock<3>(s, {0, 0, 0}, {3, 3, 6}, mat);
     s.initialize();
     const auto& g = s.grid();

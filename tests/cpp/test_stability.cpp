@@ -32,7 +32,7 @@ template <int D, class K> const char* name()
 
 emp::SolverSettings settings(double h, int ppc)
 {
-    emp::SolverSettings s;
+    emp::SolverSettings s = emptest::typicalSettings();
     s.h = h;
     s.ppc = ppc;
     return s;
@@ -56,7 +56,7 @@ Solver<D, K> freeBar(int ppc, int nx, int ny, double E, double nu, double rho, b
                      double h = 0.1)
 {
     Solver<D, K> s(settings(h, ppc));
-    const int mat = s.addMaterial(E, nu, rho, planeStress);
+    const int mat = s.addMaterial(E, nu, rho, planeStress, emp::lawIndex("spectral"));
     const double v0 = amp * s.materials()[0].waveSpeed(), L = nx * h;
     addBar<D, K>(s, nx, ny, mat, [&](const Vec<D>& x) {
         Vec<D> v = Vec<D>::Zero();
@@ -157,7 +157,7 @@ template <int D, class K> void checkPoissonRange(bool planeStress)
     }
     // 0.5 and above are refused, naming nu and the range.
     Solver<D, K> s(settings(0.1, 2));
-    const std::string m = messageOf<ParameterError>([&] { s.addMaterial(1e7, 0.5, 1000, planeStress); });
+    const std::string m = messageOf<ParameterError>([&] { s.addMaterial(1e7, 0.5, 1000, planeStress, emp::lawIndex("spectral")); });
     EXPECT_TRUE(emptest::contains(m, "nu (Poisson's ratio) = 0.5 is invalid; allowed: -1 < nu < 0.5")) << m;
 }
 
@@ -208,7 +208,7 @@ TYPED_TEST(StabilityTyped, BodyCrossingManyCellsTranslatesRigidlyForPpc1To4)
     using K = typename TypeParam::K;
     for (int ppc = 1; ppc <= 4; ++ppc) {
         Solver<D, K> s(settings(0.1, ppc));
-        const int mat = s.addMaterial(1e7, 0.3, 1000, false);
+        const int mat = s.addMaterial(1e7, 0.3, 1000, false, emp::lawIndex("spectral"));
         const double c = s.materials()[0].waveSpeed();
         Vec<D> v = Vec<D>::Zero();
         v[0] = 0.1 * c;
@@ -266,7 +266,7 @@ TYPED_TEST(StabilityTyped, VibrationForPpc1To4)
 template <int D, class K> double checkRotation(int half, double maxLoss, double maxEnergyDev)
 {
     Solver<D, K> s(settings(0.1, 2));
-    const int mat = s.addMaterial(1e7, 0.3, 1000, false);
+    const int mat = s.addMaterial(1e7, 0.3, 1000, false, emp::lawIndex("spectral"));
     const double c = s.materials()[0].waveSpeed();
     const double R = half * 0.1 * std::sqrt(2.0), omega = 0.05 * c / R;
     // Block of cells [-half, half)^D about the origin, spinning about z (3D) / the normal (2D).
@@ -409,7 +409,7 @@ template <int D, class K> void checkOneCellThick(int ppc)
     const double h = 0.1, E = 1e7, rho = 1000, L = 16 * h, c = std::sqrt(E / rho);
     const double omega = kPi * c / (2 * L), v0 = 1e-4 * c;
     Solver<D, K> s(settings(h, ppc));
-    const int mat = s.addMaterial(E, 0.0, rho, true);
+    const int mat = s.addMaterial(E, 0.0, rho, true, emp::lawIndex("spectral"));
     addBar<D, K>(s, 16, 1, mat, [&](const Vec<D>& x) {
         Vec<D> v = Vec<D>::Zero();
         v[0] = v0 * std::sin(kPi * x[0] / (2 * L));
@@ -467,7 +467,7 @@ template <int D, class K> void checkEmptyScene()
     }
     {
         Solver<D, K> s(settings(0.1, 2));
-        s.addMaterial(1e7, 0.3, 1000, false);
+        s.addMaterial(1e7, 0.3, 1000, false, emp::lawIndex("spectral"));
         s.setErosion(std::make_shared<emp::EigenErosion<D>>(emp::ErosionSettings{1.0, 2.0, 0.11}));
         std::vector<Eigen::Vector3d> crack = {Eigen::Vector3d(0.05, 0.05, 0.05), Eigen::Vector3d(0.25, 0.05, 0.05)};
         if (D == 3) crack.push_back(Eigen::Vector3d(0.25, 0.25, 0.05));
@@ -497,7 +497,7 @@ TYPED_TEST(StabilityTyped, PointsExactlyOnNodesAndCellFaces)
     using K = typename TypeParam::K;
     for (int ppc : {1, 2}) {
         Solver<D, K> s(settings(0.1, ppc));
-        const int mat = s.addMaterial(1e7, 0.3, 1000, false);
+        const int mat = s.addMaterial(1e7, 0.3, 1000, false, emp::lawIndex("spectral"));
         Vec<D> v = Vec<D>::Constant(0.3);
         const int n = (D == 2 ? 4 : 2) * ppc;
         std::array<int, D> lo, hi;
@@ -532,7 +532,7 @@ template <int D, class K> void checkDomainEdge()
 {
     for (int enlarge : {0, K::S - 1}) {
         Solver<D, K> s(settings(0.1, 2));
-        const int mat = s.addMaterial(1e7, 0.3, 1000, false);
+        const int mat = s.addMaterial(1e7, 0.3, 1000, false, emp::lawIndex("spectral"));
         Eigen::Vector3d lo = Eigen::Vector3d::Zero(), hi = Eigen::Vector3d::Constant(1.0);
         s.addPoint(Eigen::Vector3d::Constant(0.5), Eigen::Vector3d::Zero(), std::pow(0.05, D), mat);
         s.addPoint(hi, Eigen::Vector3d::Zero(), std::pow(0.05, D), mat);  // on the last node
@@ -551,7 +551,7 @@ template <int D, class K> void checkDomainEdge()
     emp::SolverSettings st = settings(0.1, 1);
     st.padding = 1;
     Solver<D, K> s(st);
-    const int mat = s.addMaterial(1e7, 0.3, 1000, false);
+    const int mat = s.addMaterial(1e7, 0.3, 1000, false, emp::lawIndex("spectral"));
     s.addPoint(Eigen::Vector3d::Zero(), Eigen::Vector3d::Constant(0.1), std::pow(0.1, D), mat);
     s.addPoint(Eigen::Vector3d::Constant(0.3), Eigen::Vector3d::Constant(-0.1), std::pow(0.1, D), mat);
     for (int n = 0; n < 5; ++n) ASSERT_NO_THROW(s.step(0.5 * s.criticalTimeStep(), 1)) << name<D, K>();
@@ -577,7 +577,7 @@ TEST(Stability, ErosionThresholdIsExactForAlpha0p5To4AndKappa0p5hTo3h)
         for (double kh : {0.5, 1.0, 2.0, 3.0})
             for (double side : {-1.0, 1.0}) {
                 Solver<2, GimpKernel> s(settings(h, 2));
-                const int mat = s.addMaterial(E, nu, 2000, false);
+                const int mat = s.addMaterial(E, nu, 2000, false, emp::lawIndex("spectral"));
                 emptest::addBlock<2>(s, {3, 3}, {11, 11}, mat);
                 s.initialize();
                 for (int I = 0; I < s.grid().numNodes(); ++I)
@@ -666,8 +666,8 @@ TYPED_TEST(StabilityTyped, NoPhantomNodeWorkWithoutCracks)
 
 /// A 2D solver is a separate instantiation with 2D kernels: its stencil has S^2 nodes, its
 /// points and grid store 2-vectors and 2x2 tensors (compile-time facts, checked here).
-static_assert(emp::Solver2GIMP::dim == 2 && emp::Solver2Linear::dim == 2, "2D solvers are 2D");
-static_assert(emp::Solver2GIMP::S == 3 && emp::Solver2Linear::S == 2, "1D supports");
+static_assert(emp::Solver<2, emp::GimpKernel>::dim == 2 && emp::Solver<2, emp::LinearKernel>::dim == 2, "2D solvers are 2D");
+static_assert(emp::Solver<2, emp::GimpKernel>::S == 3 && emp::Solver<2, emp::LinearKernel>::S == 2, "1D supports");
 static_assert(std::is_same<decltype(emp::MaterialPoints<2>::x)::value_type, Vec<2>>::value, "2D positions");
 static_assert(std::is_same<decltype(emp::MaterialPoints<2>::stress)::value_type, emp::Mat<2>>::value, "2D stress");
 static_assert(std::is_same<decltype(emp::Grid<2>::velocity)::value_type, Vec<2>>::value, "2D nodal velocity");

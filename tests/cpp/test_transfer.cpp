@@ -39,8 +39,8 @@ template <class K> double weight1D(double r, double lp)
 /// Random cloud of points in [2h, 6h]^D with random volumes and velocities, two materials.
 template <int D, class K> void addRandomCloud(Solver<D, K>& s, std::mt19937& rng, int n, double vscale)
 {
-    const int m0 = s.addMaterial(kE, kNu, kRho, false);
-    const int m1 = s.addMaterial(3 * kE, 0.2, 2 * kRho, false);
+    const int m0 = s.addMaterial(kE, kNu, kRho, false, emp::lawIndex("spectral"));
+    const int m1 = s.addMaterial(3 * kE, 0.2, 2 * kRho, false, emp::lawIndex("spectral"));
     std::uniform_real_distribution<double> ux(2 * kH, 6 * kH), uv(-vscale, vscale), uvol(0.5, 1.5);
     const double vol = std::pow(kH / s.settings().ppc, D);
     for (int p = 0; p < n; ++p) {
@@ -61,11 +61,11 @@ TYPED_TEST(TransferTest, SinglePointIsSpreadWithTheTensorProductWeights)
     std::uniform_real_distribution<double> u(0.0, 1.0);
     for (int ppc = 1; ppc <= 4; ++ppc)
         for (int trial = 0; trial < 5; ++trial) {
-            emp::SolverSettings st;
+            emp::SolverSettings st = emptest::typicalSettings();
             st.h = kH;
             st.ppc = ppc;
             typename TypeParam::S s(st);
-            const int mat = s.addMaterial(kE, kNu, kRho, false);
+            const int mat = s.addMaterial(kE, kNu, kRho, false, emp::lawIndex("spectral"));
             Vec<D> x, v;
             for (int d = 0; d < D; ++d) {
                 // Trials 0 and 1 put the point on a node and on a cell face.
@@ -96,7 +96,7 @@ TYPED_TEST(TransferTest, SinglePointIsSpreadWithTheTensorProductWeights)
 TYPED_TEST(TransferTest, MassAndMomentumConservedOverSteps)
 {
     constexpr int D = TypeParam::D;
-    emp::SolverSettings st;
+    emp::SolverSettings st = emptest::typicalSettings();
     st.h = kH;
     st.ppc = 2;
     st.massCutoff = 0;
@@ -135,7 +135,7 @@ TYPED_TEST(TransferTest, MassAndMomentumConservedOverSteps)
 TYPED_TEST(TransferTest, MomentumConservedInOneTinyStepWithDefaultCutoff)
 {
     constexpr int D = TypeParam::D;
-    emp::SolverSettings st;
+    emp::SolverSettings st = emptest::typicalSettings();
     st.h = kH;
     st.ppc = 2;
     typename TypeParam::S s(st);
@@ -159,11 +159,11 @@ TYPED_TEST(TransferTest, RigidTranslationIsStressFree)
     std::mt19937 rng(37 + D);
     std::uniform_real_distribution<double> u(-3.0, 3.0);
     for (int ppc = 1; ppc <= 3; ++ppc) {
-        emp::SolverSettings st;
+        emp::SolverSettings st = emptest::typicalSettings();
         st.h = kH;
         st.ppc = ppc;
         typename TypeParam::S s(st);
-        const int mat = s.addMaterial(kE, kNu, kRho, false);
+        const int mat = s.addMaterial(kE, kNu, kRho, false, emp::lawIndex("spectral"));
         Vec<D> v0;
         for (int d = 0; d < D; ++d) v0[d] = u(rng);
         std::array<int, D> lo, hi;
@@ -197,11 +197,11 @@ TYPED_TEST(TransferTest, RigidTranslationIsStressFree)
 TYPED_TEST(TransferTest, RigidTranslationIsStressFreeWhenNodesAreNearlyEmpty)
 {
     constexpr int D = TypeParam::D;
-    emp::SolverSettings st;
+    emp::SolverSettings st = emptest::typicalSettings();
     st.h = kH;
     st.ppc = 2;
     typename TypeParam::S s(st);
-    const int mat = s.addMaterial(kE, kNu, kRho, false);
+    const int mat = s.addMaterial(kE, kNu, kRho, false, emp::lawIndex("spectral"));
     Vec<D> v0 = Vec<D>::Zero();
     v0[0] = 1.0;
     std::array<int, D> lo, hi;

@@ -116,7 +116,7 @@ def test_point_on_the_upper_edge_of_a_given_domain_is_refused_with_the_remedy():
 # --- only what a scene requires (issue 6, item 4) ---------------------------------------------
 
 @pytest.mark.parametrize("dim", [2, 3])
-@pytest.mark.parametrize("shape, name", [("uGIMP", "GIMP"), ("linear", "Linear")])
+@pytest.mark.parametrize("shape, name", [("uGIMP", "uGIMP"), ("linear", "linear")])
 def test_engine_instantiates_the_solver_of_its_dimension(dim, shape, name):
     """A 2D scene runs Solver2* (2D kernels, 2x2 tensors), never a 3D solver: the solver class,
     and its dimension say so (tests/cpp/test_stability.cpp checks at compile time that the 2D

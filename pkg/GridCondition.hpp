@@ -1,0 +1,39 @@
+// Grid conditions: objects the step applies at named points, in the order they were added.
+//
+//   afterNodalVelocity  after P2G and the nodal velocity v_I = P_I / m_I (Eq 26), before the
+//                       strain increment (Eq 27): the grid holds mass, momentum P^{n-1/2} and
+//                       velocity; a condition sets momentum and velocity (essential conditions),
+//                       at t = t^{n-1/2}.
+//   afterForces         after the internal, body and traction forces (Eqs 13, 14, 28), before
+//                       the nodal update P^{n+1/2} = P^{n-1/2} + dt f (Eq 29): the grid holds
+//                       the force; a condition replaces it by the force it needs (and may record
+//                       the difference as its reaction), at t = t^{n+1/2}.
+//
+// Velocity conditions (prescribed, fixed, symmetry/roller) are such objects
+// (VelocityCondition.hpp). Contact, or a second velocity field at a crack, is added the same way:
+// a class deriving from GridCondition<D>, registered with Solver::addCondition; the step does
+// not change. A condition runs once per step, not per point, so a virtual call is cheap here.
+#pragma once
+#include "Grid.hpp"
+#include "MaterialPoints.hpp"
+#include "PhantomNodes.hpp"
+
+namespace emp {
+
+/// What a condition sees at its point of the step.
+template <int D> struct GridState {
+    Grid<D>& grid;
+    const MaterialPoints<D>& points;
+    const PhantomNodes<D>& phantom;  ///< twins of the marked nodes (pre-existing cracks)
+    double time;                     ///< t^{n-1/2} after the nodal velocity, t^{n+1/2} after forces
+    double dt;
+};
+
+template <int D> class GridCondition {
+public:
+    virtual ~GridCondition() = default;
+    virtual void afterNodalVelocity(GridState<D>&) {}
+    virtual void afterForces(GridState<D>&) {}
+};
+
+}  // namespace emp

@@ -1,0 +1,55 @@
+// What a constitutive law is to the solver: a compile-time policy, one struct per law, chosen
+// per material by its index in RegisteredLaws (Laws.hpp). The solver dispatches once per point
+// with a switch over that list (withLaw); there is no virtual call per point.
+//
+// A law is a struct with (see laws/TemplateLaw.hpp for a commented starting point):
+//   static constexpr const char* name;             user's name: ElasticMaterial(split=name)
+//   static constexpr Compression tensionFree;       which compressive states have psi+ = 0,
+//                                                  i.e. never erode (tested for every law)
+//   template <int D> static LawResponse<D> response(const Mat<D>& eps, const ElasticMaterial& m);
+//       sigma+ and sigma- with sigma = g(c) sigma+ + sigma- (Eq 7), and psi+/psi- (Eqs 3-4);
+//       an eroded point (c = 0) keeps sigma-
+//   static double outOfPlaneStress(const Mat<2>& eps, double c, const ElasticMaterial& m);
+//       sigma_zz of a 2D point (plane strain; plane stress returns 0)
+//   static double waveSpeed(const ElasticMaterial& m);   dilatational wave speed (critical dt)
+#pragma once
+#include <Eigen/Dense>
+#include <string>
+
+#include "Configurations.hpp"
+
+namespace emp {
+
+template <int D> using Vec = Eigen::Matrix<double, D, 1>;
+template <int D> using Mat = Eigen::Matrix<double, D, D>;
+
+/// The split of one point's response: sigma+ and sigma- (Eq 7 with g = 1), psi+ and psi- (3, 4).
+template <int D> struct LawResponse {
+    Mat<D> sigmaPlus, sigmaMinus;
+    double psiPlus, psiMinus;
+};
+
+/// Which compressive strain states a law promises to leave free of tensile energy (psi+ = 0).
+enum class Compression {
+    none,           ///< no promise: every strain has tensile energy
+    hydrostatic,    ///< eps = -p I with p > 0
+    allPrincipal    ///< every principal strain <= 0
+};
+
+/// Hooke's law sigma = lambda tr(eps) I + 2 mu eps (the unsplit law).
+template <int D> inline Mat<D> hooke(const Mat<D>& eps, double lambda, double mu)
+{
+    return lambda * eps.trace() * Mat<D>::Identity() + 2.0 * mu * eps;
+}
+
+/// psi = lambda/2 tr(eps)^2 + mu eps:eps (the unsplit energy).
+template <int D> inline double strainEnergy(const Mat<D>& eps, double lambda, double mu)
+{
+    const double tr = eps.trace();
+    return 0.5 * lambda * tr * tr + mu * eps.squaredNorm();
+}
+
+inline double positivePart(double x) { return x > 0 ? x : 0.0; }
+inline double negativePart(double x) { return x < 0 ? x : 0.0; }
+
+}  // namespace emp

@@ -1,0 +1,101 @@
+// Scheduling, apart from the physics: which points and nodes a worker owns and in which order
+// the contributions reach a node. Points are binned (stable counting sort) into strips of
+// `stripWidth` cells along the last axis; a scatter to the grid runs the strips in two colours,
+// so strips of one colour never write the same node and need neither atomics nor per-thread
+// copies. The order of the contributions to every node is then fixed whatever the thread
+// count: results are bitwise independent of it. This is also the seam where a distributed run
+// decides which points and nodes a process owns.
+#pragma once
+#include <algorithm>
+#include <climits>
+#include <string>
+#include <vector>
+
+#include "Grid.hpp"
+
+namespace emp {
+
+template <int D> class Scheduler {
+public:
+    /// Cells per strip: strips two apart never share a node (needs stripWidth >= S - 1).
+    static constexpr int stripWidth = 4;
+
+    /// Bins the points at x by strip, for the kernel K. Returns the id of the first point whose
+    /// support leaves the grid (binned nowhere), or -1 when all are on it.
+    template <class K> int bin(const std::vector<Vec<D>>& x, const Grid<D>& g, int nThreads)
+    {
+        static_assert(stripWidth >= K::S - 1, "strips of one colour would share nodes");
+        constexpr int last = D - 1;
+        const int numStrips = (g.n[last] - K::S) / stripWidth + 1;
+        const int np = static_cast<int>(x.size());
+        stripOf_.resize(np);
+        int firstOffGrid = INT_MAX;
+#pragma omp parallel for schedule(static) num_threads(nThreads) reduction(min : firstOffGrid)
+        for (int p = 0; p < np; ++p) {
+            int b = 0;
+            for (int d = 0; d < D; ++d) {
+                b = K::base((x[p][d] - g.origin[d]) * g.invh);
+                if (!(b >= 0 && b <= g.n[d] - K::S)) {
+                    firstOffGrid = std::min(firstOffGrid, p);
+                    b = 0;
+                    break;
+                }
+            }
+            stripOf_[p] = b / stripWidth;  // b is now the base node along the last axis
+        }
+        if (firstOffGrid != INT_MAX) return firstOffGrid;
+        stripStart_.assign(numStrips + 1, 0);
+        for (int p = 0; p < np; ++p) ++stripStart_[stripOf_[p] + 1];
+        for (int s = 0; s < numStrips; ++s) stripStart_[s + 1] += stripStart_[s];
+        order_.resize(np);
+        stripFill_.assign(stripStart_.begin(), stripStart_.end() - 1);
+        for (int p = 0; p < np; ++p) order_[stripFill_[stripOf_[p]]++] = p;
+        return -1;
+    }
+
+    /// Point ids in binned order: slot k holds point order()[k].
+    const std::vector<int>& order() const { return order_; }
+    int size() const { return static_cast<int>(order_.size()); }
+
+    /// Calls f(slot) for every slot, where f may scatter to the nodes of its point's support:
+    /// two colours of strips, each strip in slot order.
+    template <class F> void scatter(int nThreads, F&& f) const
+    {
+        const int numStrips = static_cast<int>(stripStart_.size()) - 1;
+        for (int colour = 0; colour < 2; ++colour) {
+#pragma omp parallel for schedule(dynamic, 1) num_threads(nThreads)
+            for (int s = colour; s < numStrips; s += 2)
+                for (int k = stripStart_[s]; k < stripStart_[s + 1]; ++k) f(k);
+        }
+    }
+
+    /// Calls f(slot, acc) for every slot where f writes only its own point, with a per-worker
+    /// accumulator acc (initialised to init) that is then folded by combine(acc, workerAcc).
+    /// combine must be order-independent (min, max) for results independent of the thread count.
+    template <class Acc, class F, class C> Acc gather(int nThreads, Acc init, F&& f, C&& combine) const
+    {
+        const int np = size();
+        Acc total = init;
+#pragma omp parallel num_threads(nThreads)
+        {
+            Acc acc = init;
+#pragma omp for schedule(static) nowait
+            for (int k = 0; k < np; ++k) f(k, acc);
+#pragma omp critical(emp_scheduler_gather)
+            combine(total, acc);
+        }
+        return total;
+    }
+
+    /// Calls f(I) for every node index I in [0, n) (nodal loops: each node writes itself).
+    template <class F> static void forEachNode(int n, int nThreads, F&& f)
+    {
+#pragma omp parallel for schedule(static) num_threads(nThreads)
+        for (int I = 0; I < n; ++I) f(I);
+    }
+
+private:
+    std::vector<int> order_, stripStart_, stripOf_, stripFill_;
+};
+
+}  // namespace emp

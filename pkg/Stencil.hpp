@@ -1,0 +1,96 @@
+// The shape functions of one point on its S^D support nodes (paper Eq 15: tensor products of the
+// kernel's 1D weights), and the phantom-node rule that swaps marked nodes for their twins across
+// a pre-existing crack (Section 3.3.1). Computed once per point per step, in P2G, and reused by
+// the stress/force pass and by G2P.
+#pragma once
+#include <algorithm>
+
+#include "Grid.hpp"
+#include "PhantomNodes.hpp"
+
+// Forced inline (GCC/Clang): forEach is called per point in every pass and must merge with the
+// pass's body so that the sums over the nodes stay in registers; left to itself, GCC's inliner
+// keeps some instantiations out of line in a large translation unit (about 20% slower).
+#if defined(__GNUC__)
+#define EMP_ALWAYS_INLINE __attribute__((always_inline)) inline
+#else
+#define EMP_ALWAYS_INLINE inline
+#endif
+
+namespace emp {
+
+template <int D, class K> struct Stencil {
+    static constexpr int S = K::S;
+    static constexpr int NS = D == 2 ? S * S : S * S * S;
+    int base[D];
+    int remap;  ///< offset of the node indices in Grid::remap, or -1 (no crack near)
+    double w[D][S], dw[D][S];
+
+    /// Weights and derivatives of the point at x for the particle half-width lp (cells).
+    void compute(const Vec<D>& x, const Grid<D>& g, double lp)
+    {
+        for (int d = 0; d < D; ++d) base[d] = K::eval((x[d] - g.origin[d]) * g.invh, lp, w[d], dw[d]);
+        remap = -1;
+    }
+
+    /// Whether the support can touch a marked node: it overlaps the box [lo, hi] of them.
+    bool overlaps(const int* lo, const int* hi) const
+    {
+        for (int d = 0; d < D; ++d)
+            if (base[d] > hi[d] || base[d] + S - 1 < lo[d]) return false;
+        return true;
+    }
+
+    /// Phantom-node rule: a marked node is replaced by its twin when the segment from the point
+    /// to the node crosses the crack. Writes the S^D node indices into slot `slot` of Grid::remap
+    /// when any node is marked.
+    void mapAcrossCracks(const Vec<D>& x, Grid<D>& g, const PhantomNodes<D>& ph, int slot)
+    {
+        int node[NS];
+        bool any = false;
+        for (int k = 0; k < NS; ++k) {
+            node[k] = regularNode(g, k);
+            any = any || ph.marked(node[k]);
+        }
+        if (!any) return;
+        for (int k = 0; k < NS; ++k)
+            if (ph.marked(node[k])) node[k] = ph.map(x, node[k], g.nodePosition(node[k]));
+        remap = slot * NS;
+        std::copy(node, node + NS, &g.remap[remap]);
+    }
+
+    /// Index of support node k (x fastest) on the regular lattice.
+    int regularNode(const Grid<D>& g, int k) const
+    {
+        int I = base[0] + k % S + (base[1] + (k / S) % S) * g.stride[1];
+        if constexpr (D == 3) I += (base[2] + k / (S * S)) * g.stride[2];
+        return I;
+    }
+
+    /// Calls f(node index, N, grad N) for every support node, in a fixed order.
+    template <class F> EMP_ALWAYS_INLINE void forEach(const Grid<D>& g, F&& f) const
+    {
+        // Node indices: from the base node, or near a pre-existing crack from the remap table
+        // (phantom twins). Gathering them first keeps one copy of f's body, so that the compiler
+        // inlines forEach and f into each pass and keeps the pass's sums in registers.
+        int node[NS];
+        for (int k = 0; k < NS; ++k) node[k] = remap >= 0 ? g.remap[remap + k] : regularNode(g, k);
+        if constexpr (D == 2) {
+            for (int j = 0; j < S; ++j)
+                for (int i = 0; i < S; ++i)
+                    f(node[i + S * j], w[0][i] * w[1][j],
+                      Vec<2>(dw[0][i] * w[1][j] * g.invh, w[0][i] * dw[1][j] * g.invh));
+        } else {
+            for (int k = 0; k < S; ++k)
+                for (int j = 0; j < S; ++j) {
+                    const double wjk = w[1][j] * w[2][k];
+                    for (int i = 0; i < S; ++i)
+                        f(node[i + S * (j + S * k)], w[0][i] * wjk,
+                          Vec<3>(dw[0][i] * wjk * g.invh, w[0][i] * dw[1][j] * w[2][k] * g.invh,
+                                 w[0][i] * w[1][j] * dw[2][k] * g.invh));
+                }
+        }
+    }
+};
+
+}  // namespace emp

@@ -1,0 +1,45 @@
+#include "VelocityCondition.hpp"
+
+#include <algorithm>
+
+namespace emp {
+
+template <int D> void VelocityCondition<D>::afterNodalVelocity(GridState<D>& s)
+{
+    active = nodes;
+    for (int p : points) {
+        const int I = s.grid.nearestNode(s.points.x[p]);
+        if (I >= 0) active.push_back(I);
+    }
+    std::sort(active.begin(), active.end());
+    active.erase(std::unique(active.begin(), active.end()), active.end());
+    const Eigen::Vector3d vbar = value(s.time);
+    auto& g = s.grid;
+    forEachConstrained(s.phantom, [&](int I) {
+        for (int d = 0; d < D; ++d) {
+            if (!(mask & (1u << d))) continue;
+            g.momentum[I][d] = g.mass[I] * vbar[d];
+            g.velocity[I][d] = g.mass[I] > 0 ? vbar[d] : 0.0;
+        }
+    });
+}
+
+template <int D> void VelocityCondition<D>::afterForces(GridState<D>& s)
+{
+    const Eigen::Vector3d vbar = value(s.time);
+    auto& g = s.grid;
+    reaction.setZero();
+    forEachConstrained(s.phantom, [&](int I) {
+        for (int d = 0; d < D; ++d) {
+            if (!(mask & (1u << d))) continue;
+            const double applied = (g.mass[I] * vbar[d] - g.momentum[I][d]) / s.dt;
+            reaction[d] += applied - g.force[I][d];
+            g.force[I][d] = applied;
+        }
+    });
+}
+
+template class VelocityCondition<2>;
+template class VelocityCondition<3>;
+
+}  // namespace emp

@@ -1,0 +1,44 @@
+// Essential (velocity) condition on grid nodes: the velocity prescribed on the components in
+// `mask` (bit d = direction d). The nodes are either a fixed list (chosen by region once) or,
+// each step, the node nearest to each of the listed boundary points. A fixed support or a
+// symmetry/roller plane is a zero velocity on some components. A condition holds at a location:
+// it applies to the phantom twins of its nodes too.
+#pragma once
+#include <Eigen/Dense>
+#include <vector>
+
+#include "BoundaryConditions.hpp"
+#include "GridCondition.hpp"
+
+namespace emp {
+
+template <int D> class VelocityCondition : public GridCondition<D> {
+public:
+    std::vector<int> nodes;   ///< static node list (region selection)
+    std::vector<int> points;  ///< boundary points (point selection)
+    unsigned mask = 0;
+    Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
+    double rampTime = 0;
+    std::vector<int> active;  ///< nodes constrained in the current step
+    Eigen::Vector3d reaction = Eigen::Vector3d::Zero();  ///< force the condition exerts, N
+
+    /// The prescribed velocity at time t (the ramp of Eq 34 when rampTime > 0).
+    Eigen::Vector3d value(double t) const { return rampFactor(t, rampTime) * velocity; }
+
+    /// Chooses this step's nodes and sets their momentum m v and velocity v (Eq 26 constrained).
+    void afterNodalVelocity(GridState<D>& s) override;
+    /// Replaces the force by the one that makes the node reach m v at t^{n+1/2}; the reaction
+    /// is what that adds to the internal and external forces.
+    void afterForces(GridState<D>& s) override;
+
+private:
+    template <class F> void forEachConstrained(const PhantomNodes<D>& ph, F&& f) const
+    {
+        for (int I : active) {
+            f(I);
+            ph.forEachTwin(I, f);
+        }
+    }
+};
+
+}  // namespace emp

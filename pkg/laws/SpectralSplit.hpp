@@ -1,0 +1,112 @@
+// The paper's law: linear elasticity with the spectral tension/compression split of the strain
+// (Miehe et al.; paper Eqs 2-7). eps+ = sum <eps_i>+ n_i n_i over the principal strains,
+//   psi+ = lambda/2 <tr eps>+^2 + mu tr(eps+^2),   psi- = lambda/2 <tr eps>-^2 + mu tr(eps-^2),
+//   sigma+ = lambda <tr eps>+ I + 2 mu eps+,       sigma- = lambda <tr eps>- I + 2 mu eps-.
+// Every principal strain <= 0 gives psi+ = 0: compression never erodes. In 2D plane strain the
+// out-of-plane principal strain is 0 and adds nothing, so the 2D formulas are the 3D ones.
+#pragma once
+#include <cmath>
+
+#include "../ElasticMaterial.hpp"
+
+namespace emp {
+
+struct SpectralSplit {
+    static constexpr const char* name = "spectral";
+    static constexpr Compression tensionFree = Compression::allPrincipal;
+
+    /// Principal strains l and the tensile part eps+ (Eq 5). Fast paths avoid the eigenvectors
+    /// when all principal strains have one sign, which is nearly every point in most scenes.
+    static void tensilePart(const Mat<2>& e, Vec<2>& l, Mat<2>& ep)
+    {
+        const double m = 0.5 * (e(0, 0) + e(1, 1));
+        const double d = 0.5 * (e(0, 0) - e(1, 1));
+        const double r = std::sqrt(d * d + e(0, 1) * e(0, 1));
+        l << m + r, m - r;
+        if (l(1) >= 0) {
+            ep = e;
+        } else if (l(0) <= 0) {
+            ep.setZero();
+        } else {
+            // l0 > 0 > l1, so the eigenvalues differ and the projector on n0 is (e - l1 I)/(l0 - l1).
+            ep = (l(0) / (l(0) - l(1))) * (e - l(1) * Mat<2>::Identity());
+        }
+    }
+
+    static void tensilePart(const Mat<3>& e, Vec<3>& l, Mat<3>& ep)
+    {
+        // Eigenvalues in closed form (no eigenvectors). They are accurate to round-off of the
+        // deviator except within a nearly repeated pair, whose two values can be off by ~1e-8 of
+        // the deviator while their sum stays exact.
+        Eigen::SelfAdjointEigenSolver<Mat<3>> es;
+        es.computeDirect(e, Eigen::EigenvaluesOnly);
+        l = es.eigenvalues();  // ascending
+        const double spread = l(2) - l(0);
+        if (!(spread > 0)) {  // e = l I exactly
+            if (l(0) >= 0) ep = e; else ep.setZero();
+            return;
+        }
+        // All principal strains clearly of one sign (by much more than that error): Eq 5 directly.
+        const double margin = 1e-6 * spread;
+        if (l(0) >= margin) {
+            ep = e;
+            return;
+        }
+        if (l(2) <= -margin) {
+            ep.setZero();
+            return;
+        }
+        // Mixed or nearly zero principal strains. The eigenvalue l_k farther from the other two is
+        // accurate, and so is its spectral projector P_k = (e - l_a I)(e - l_b I)/((l_k - l_a)(l_k - l_b))
+        // (the pair's errors cancel to second order). The pair lives in the plane Q = I - P_k as
+        // B = e - l_k P_k; its values m -+ r come from the trace and the norm of B's deviator in the
+        // plane, with no cancellation, so a repeated pair (even at zero) is split exactly.
+        const int k = l(1) - l(0) >= l(2) - l(1) ? 0 : 2, a = k == 0 ? 1 : 0, b = k == 0 ? 2 : 1;
+        const Mat<3> I = Mat<3>::Identity();
+        const Mat<3> Pk = (e - l(a) * I) * (e - l(b) * I) / ((l(k) - l(a)) * (l(k) - l(b)));
+        const Mat<3> Q = I - Pk;
+        const Mat<3> B = e - l(k) * Pk;
+        const double m = 0.5 * (e.trace() - l(k));
+        const double r = std::sqrt(0.5 * (B - m * Q).squaredNorm());
+        const double lminus = m - r, lplus = m + r;
+        ep = positivePart(l(k)) * Pk;
+        if (lminus >= 0)
+            ep += B;
+        else if (lplus > 0)
+            ep += (lplus / (2.0 * r)) * (B - lminus * Q);  // lplus times the projector on its vector
+        l << l(k), lminus, lplus;  // only the set of values is used below
+    }
+
+    template <int D> static LawResponse<D> response(const Mat<D>& eps, const ElasticMaterial& mat)
+    {
+        const double lambda = mat.lambda, mu = mat.mu;
+        Vec<D> l;
+        Mat<D> ep;
+        tensilePart(eps, l, ep);
+        const Mat<D> em = eps - ep;  // Eq 6
+        const double tr = eps.trace();
+        double sp2 = 0, sm2 = 0;  // tr(eps+^2), tr(eps-^2) from the principal strains
+        for (int i = 0; i < D; ++i) {
+            sp2 += positivePart(l(i)) * positivePart(l(i));
+            sm2 += negativePart(l(i)) * negativePart(l(i));
+        }
+        LawResponse<D> s;
+        s.psiPlus = 0.5 * lambda * positivePart(tr) * positivePart(tr) + mu * sp2;   // Eq 3
+        s.psiMinus = 0.5 * lambda * negativePart(tr) * negativePart(tr) + mu * sm2;  // Eq 4
+        s.sigmaPlus = lambda * positivePart(tr) * Mat<D>::Identity() + 2.0 * mu * ep;  // Eq 7
+        s.sigmaMinus = lambda * negativePart(tr) * Mat<D>::Identity() + 2.0 * mu * em;
+        return s;
+    }
+
+    /// Plane strain: eps_zz = 0 is a principal strain, so sigma_zz = lambda (c <tr>+ + <tr>-).
+    static double outOfPlaneStress(const Mat<2>& eps, double c, const ElasticMaterial& m)
+    {
+        if (m.planeStress) return 0.0;
+        const double tr = eps.trace();
+        return m.lambda * (c * positivePart(tr) + negativePart(tr));
+    }
+
+    static double waveSpeed(const ElasticMaterial& m) { return std::sqrt((m.lambda + 2.0 * m.mu) / m.rho); }
+};
+
+}  // namespace emp
