@@ -17,7 +17,9 @@ Run::
     yade-batch table.txt examples/crack_branching.py      # a column per parameter (and quick)
 
 with params h_mm, ppc, shape, kappaOverH, alpha, endTime_us, dt_us, dtFraction (if > 0: the time step
-as this fraction of the critical step, instead of dt_us), phantom, notchWidthOverH, vtkPeriod_us. Writes
+as this fraction of the critical step, instead of dt_us), phantom, notchWidthOverH, vtkPeriod_us, split
+(the tension/compression split of the strain energy: spectral, the paper's and the default; volumetric;
+none; see doc/fracture.md), E, nu, rho, Gc, traction_MPa. Writes
 DIR/summary.json (initiation_time_us, branching_time_us, cut_through_time_us (the first time
 the crack grown from the pre-crack tip reaches the right edge; right_edge_time_upper_us and
 _lower_us per branch, branches_at_right_edge), max_tip_speed_m_s, dissipated_energy_J,
@@ -41,7 +43,7 @@ from eigenmpm.fracture import linked
 
 DEFAULTS = dict(h_mm=0.25, ppc=2, shape="uGIMP", kappaOverH=1.1, alpha=2.0, endTime_us=80.0, dt_us=0.01,
                 dtFraction=0.0, phantom=1.0, notchWidthOverH=2.0, vtkPeriod_us=10.0, E=72e9, nu=0.22, rho=2440.0,
-                Gc=135.0, traction_MPa=12.0)
+                Gc=135.0, traction_MPa=12.0, split="spectral")
 QUICK = dict(h_mm=1.0, endTime_us=40.0, dt_us=0.04)
 
 
@@ -55,7 +57,7 @@ def build(o):
     # The grid leaves 5 mm around the plate: after cut-through the halves fly apart.
     mpm = em.MpmEngine(dim=2, h=h, ppc=o["ppc"], shape=o["shape"], thickness=h, label="plate",
                        domain=((-0.005, -0.005, 0), (L + 0.005, W + 0.005, 0)))
-    glass = em.ElasticMaterial(E=o["E"], nu=o["nu"], rho=o["rho"], planeStress=True)
+    glass = em.ElasticMaterial(E=o["E"], nu=o["nu"], rho=o["rho"], planeStress=True, split=o["split"])
     mpm.fill(plate, glass)
     if o["phantom"]:
         mpm.crack([(-h, 0.5 * W, 0), (0.5 * L, 0.5 * W, 0)])

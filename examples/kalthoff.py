@@ -57,7 +57,9 @@ Run::
     yade-batch table.txt examples/kalthoff.py          # a column per parameter (and quick)
 
 params: h_mm, kappaOverH, alpha, endTime_us, dt_us, v0_m_s, rampTime_us, slitWidth_mm,
-slitLength_mm, stopAfter_us, initLength_mm, tipWindow_us, vtkPeriod_us, E, nu, rho, Gc. Writes
+slitLength_mm, stopAfter_us, initLength_mm, tipWindow_us, vtkPeriod_us, E, nu, rho, Gc, split (the
+tension/compression split of the strain energy: spectral, the paper's and the default; volumetric;
+none; see doc/fracture.md). Writes
 DIR/summary.json (initiation_time_us, crack_angle_initial_deg, crack_angle_overall_deg,
 crack_angle_fit_deg, boundary_time_us, max_tip_speed_m_s, dissipated_energy_J, particles,
 steps, wall_time_s, particle_steps_per_s, ...), DIR/damage.png, DIR/tip_speed.png (with the
@@ -92,7 +94,8 @@ from eigenmpm.fracture import linked
 
 DEFAULTS = dict(h_mm=0.5, kappaOverH=1.15, alpha=2.0, endTime_us=110.0, dt_us=0.01, v0_m_s=16.5,
                 rampTime_us=1.0, slitWidth_mm=1.0, slitLength_mm=40.0, stopAfter_us=2.0, initLength_mm=10.0,
-                tipWindow_us=2.0, vtkPeriod_us=10.0, E=190e9, nu=0.3, rho=8000.0, Gc=22130.0)
+                tipWindow_us=2.0, vtkPeriod_us=10.0, E=190e9, nu=0.3, rho=8000.0, Gc=22130.0,
+                split="spectral")
 QUICK = dict(h_mm=1.0, dt_us=0.12)
 RAYLEIGH = 2803.0
 SIZE, NOTCH_LEN = 0.1, 0.05
@@ -113,7 +116,7 @@ def build(o):
     # its points outward by more than a few cells (at h = 0.5 mm a point left a 3-cell margin at 86 us).
     mpm = em.MpmEngine(dim=2, h=h, ppc=2, thickness=1.0, label="plate",
                        domain=((-0.005, -0.005, 0), (SIZE + 0.005, SIZE + 0.005, 0)))
-    steel = em.ElasticMaterial(E=o["E"], nu=o["nu"], rho=o["rho"], planeStress=False)
+    steel = em.ElasticMaterial(E=o["E"], nu=o["nu"], rho=o["rho"], planeStress=False, split=o["split"])
     plate = pack.inAlignedBox((0, 0, 0), (SIZE, SIZE, 0))
     if o["slitWidth_mm"] > 0 and o["slitLength_mm"] > 0:
         w = 0.5e-3 * o["slitWidth_mm"]
