@@ -1,0 +1,301 @@
+// Typed tests of the constitutive laws (Law.hpp): every registered law (Laws.hpp) and the
+// commented template (laws/TemplateLaw.hpp) pass them. A new law registered in Laws.hpp is
+// picked up here with no edit. Properties, not tables:
+//   - psi+ + psi- is the strain energy and sigma+ + sigma- is Hooke's law (the split only
+//     splits); psi+ and psi- are non-negative;
+//   - sigma+ and sigma- are the derivatives of psi+ and psi- (the split is hyperelastic);
+//   - objectivity: rotating the strain rotates the stresses and keeps the energies;
+//   - the promise `tensionFree` holds, and the split laws' promise is not empty;
+//   - an eroded point keeps sigma-, which never pulls (negative semi-definite for nu >= 0);
+//   - in the solver: the patch test (a homogeneous strain gives the law's stress at every
+//     point) and a compressed block with a tiny Gc never erodes when the law promises it.
+#include <type_traits>
+
+#include "Laws.hpp"
+#include "laws/TemplateLaw.hpp"
+#include "test_helpers.hpp"
+
+namespace {
+
+using emp::Compression;
+using emp::ElasticMaterial;
+using emptest::Mat;
+using emptest::Vec;
+
+template <class... L> struct AppendTemplate;
+template <class... L> struct AppendTemplate<emp::TypeList<L...>> {
+    using type = ::testing::Types<L..., emp::TemplateLaw>;
+};
+/// Every registered law plus the template.
+using TestedLaws = typename AppendTemplate<emp::RegisteredLaws>::type;
+
+template <class L> struct LawTest : ::testing::Test {};
+TYPED_TEST_SUITE(LawTest, TestedLaws);
+
+/// The three plane conditions a law meets: 3D, 2D plane strain, 2D plane stress.
+struct Case {
+    int dim;
+    bool planeStress;
+    const char* name;
+};
+const Case kCases[] = {{3, false, "3D"}, {2, false, "plane strain"}, {2, true, "plane stress"}};
+
+ElasticMaterial material(std::mt19937& rng, const Case& c, double nuMin = -0.9)
+{
+    std::uniform_real_distribution<double> unu(nuMin, 0.49), uE(0.5, 3.0);
+    // The law index is irrelevant here: the tests call the law's functions directly.
+    return ElasticMaterial::make(uE(rng), unu(rng), 1.0 + uE(rng), c.planeStress, c.dim, 0);
+}
+
+template <class L, int D> void energyIdentities(std::mt19937& rng, const Case& c)
+{
+    for (int i = 0; i < 2000; ++i) {
+        const ElasticMaterial m = material(rng, c);
+        const Mat<D> eps = emptest::randomSymmetric<D>(rng, i % 2 ? 1e-3 : 1.0);
+        const auto r = L::template response<D>(eps, m);
+        const double scale = (std::fabs(m.lambda) + m.mu) * eps.squaredNorm();
+        const double psi = emp::strainEnergy<D>(eps, m.lambda, m.mu);
+        EXPECT_NEAR(r.psiPlus + r.psiMinus, psi, 1e-12 * scale) << L::name << ", " << c.name << "\n" << eps;
+        EXPECT_GE(r.psiPlus, -1e-14 * scale) << L::name << ", " << c.name;
+        EXPECT_GE(r.psiMinus, -1e-14 * scale) << L::name << ", " << c.name;
+        const Mat<D> sigma = emp::hooke<D>(eps, m.lambda, m.mu);
+        EXPECT_LT((r.sigmaPlus + r.sigmaMinus - sigma).norm(), 1e-12 * (std::fabs(m.lambda) + m.mu) * eps.norm())
+            << L::name << ", " << c.name;
+        EXPECT_LT((r.sigmaPlus - r.sigmaPlus.transpose()).norm(), 1e-14 * (std::fabs(m.lambda) + m.mu) * eps.norm());
+    }
+}
+
+TYPED_TEST(LawTest, SplitPartsAddUpToTheStrainEnergyAndHookesLaw)
+{
+    std::mt19937 rng(11);
+    for (const Case& c : kCases) {
+        if (c.dim == 2) energyIdentities<TypeParam, 2>(rng, c);
+        else energyIdentities<TypeParam, 3>(rng, c);
+    }
+}
+
+template <class L, int D> void derivatives(std::mt19937& rng, const Case& c)
+{
+    // Central differences of psi+ and psi- along random symmetric directions: d psi = sigma : d eps.
+    for (int i = 0; i < 300; ++i) {
+        const ElasticMaterial m = material(rng, c);
+        const Mat<D> eps = emptest::randomSymmetric<D>(rng, 1.0);
+        const Mat<D> dir = emptest::randomSymmetric<D>(rng, 1.0);
+        const double t = 1e-6;
+        const auto a = L::template response<D>(Mat<D>(eps + t * dir), m);
+        const auto b = L::template response<D>(Mat<D>(eps - t * dir), m);
+        const auto r = L::template response<D>(eps, m);
+        const double scale = (std::fabs(m.lambda) + m.mu) * eps.norm() * dir.norm();
+        EXPECT_NEAR((a.psiPlus - b.psiPlus) / (2 * t), (r.sigmaPlus.cwiseProduct(dir)).sum(), 1e-6 * scale)
+            << L::name << ", " << c.name;
+        EXPECT_NEAR((a.psiMinus - b.psiMinus) / (2 * t), (r.sigmaMinus.cwiseProduct(dir)).sum(), 1e-6 * scale)
+            << L::name << ", " << c.name;
+    }
+}
+
+TYPED_TEST(LawTest, StressesAreTheDerivativesOfTheSplitEnergies)
+{
+    std::mt19937 rng(12);
+    for (const Case& c : kCases) {
+        if (c.dim == 2) derivatives<TypeParam, 2>(rng, c);
+        else derivatives<TypeParam, 3>(rng, c);
+    }
+}
+
+template <class L, int D> void objectivity(std::mt19937& rng, const Case& c)
+{
+    for (int i = 0; i < 300; ++i) {
+        const ElasticMaterial m = material(rng, c);
+        const Mat<D> eps = emptest::randomSymmetric<D>(rng, 1.0);
+        const Mat<D> R = emptest::randomRotation<D>(rng);
+        const auto a = L::template response<D>(eps, m);
+        const auto b = L::template response<D>(Mat<D>(R * eps * R.transpose()), m);
+        const double scale = (std::fabs(m.lambda) + m.mu) * eps.norm();
+        EXPECT_LT((R * a.sigmaPlus * R.transpose() - b.sigmaPlus).norm(), 1e-11 * scale) << L::name << ", " << c.name;
+        EXPECT_LT((R * a.sigmaMinus * R.transpose() - b.sigmaMinus).norm(), 1e-11 * scale) << L::name << ", " << c.name;
+        EXPECT_NEAR(a.psiPlus, b.psiPlus, 1e-11 * scale * eps.norm()) << L::name << ", " << c.name;
+    }
+}
+
+TYPED_TEST(LawTest, RotatingTheStrainRotatesTheStress)
+{
+    std::mt19937 rng(13);
+    for (const Case& c : kCases) {
+        if (c.dim == 2) objectivity<TypeParam, 2>(rng, c);
+        else objectivity<TypeParam, 3>(rng, c);
+    }
+}
+
+/// A compressive strain of the kind the law promises to keep free of tensile energy, or of any
+/// kind (all principal strains negative) when it promises nothing.
+template <int D> Mat<D> compression(std::mt19937& rng, Compression kind)
+{
+    std::uniform_real_distribution<double> u(0.1, 1.0);
+    if (kind == Compression::hydrostatic) return -u(rng) * Mat<D>::Identity();
+    const Mat<D> R = emptest::randomRotation<D>(rng);
+    Vec<D> l;
+    for (int d = 0; d < D; ++d) l[d] = -u(rng);
+    return R * l.asDiagonal() * R.transpose();
+}
+
+template <class L, int D> void promise(std::mt19937& rng, const Case& c)
+{
+    // Plane strain: eps_zz = 0, so an in-plane -p I is not hydrostatic in 3D; the hydrostatic
+    // promise is a 3D (or plane-stress) one.
+    if (L::tensionFree == Compression::hydrostatic && c.dim == 2 && !c.planeStress) return;
+    int withTension = 0;
+    for (int i = 0; i < 200; ++i) {
+        const ElasticMaterial m = material(rng, c, 0.0);
+        const Mat<D> eps = compression<D>(rng, L::tensionFree);
+        const auto r = L::template response<D>(eps, m);
+        const double scale = (m.lambda + m.mu) * eps.squaredNorm();
+        if (L::tensionFree == Compression::none) {
+            withTension += r.psiPlus > 1e-6 * scale;
+            continue;
+        }
+        EXPECT_LE(r.psiPlus, 1e-14 * scale) << L::name << ", " << c.name << ": tensile energy under\n" << eps;
+        EXPECT_LT(r.sigmaPlus.norm(), 1e-12 * (m.lambda + m.mu) * eps.norm()) << L::name << ", " << c.name;
+    }
+    // A law that promises nothing must really have tensile energy in compression, else its
+    // trait undersells it.
+    if (L::tensionFree == Compression::none) EXPECT_GT(withTension, 0) << L::name << ", " << c.name;
+}
+
+TYPED_TEST(LawTest, CompressionTheLawPromisesToSpareHasNoTensileEnergy)
+{
+    std::mt19937 rng(14);
+    for (const Case& c : kCases) {
+        if (c.dim == 2) promise<TypeParam, 2>(rng, c);
+        else promise<TypeParam, 3>(rng, c);
+    }
+}
+
+template <class L, int D> void erodedStressNeverPulls(std::mt19937& rng, const Case& c)
+{
+    for (int i = 0; i < 1000; ++i) {
+        const ElasticMaterial m = material(rng, c, 0.0);
+        const Mat<D> eps = emptest::randomSymmetric<D>(rng, 1.0);
+        const Mat<D> sm = L::template response<D>(eps, m).sigmaMinus;
+        Eigen::SelfAdjointEigenSolver<Mat<D>> es(sm);
+        EXPECT_LE(es.eigenvalues().maxCoeff(), 1e-12 * (m.lambda + m.mu) * eps.norm())
+            << L::name << ", " << c.name << ": sigma- pulls\n" << sm;
+    }
+}
+
+TYPED_TEST(LawTest, StressOfAnErodedPointNeverPulls)
+{
+    std::mt19937 rng(15);
+    for (const Case& c : kCases) {
+        if (c.dim == 2) erodedStressNeverPulls<TypeParam, 2>(rng, c);
+        else erodedStressNeverPulls<TypeParam, 3>(rng, c);
+    }
+}
+
+TYPED_TEST(LawTest, OutOfPlaneStressOfPlaneStrainAndWaveSpeed)
+{
+    using L = TypeParam;
+    std::mt19937 rng(16);
+    for (int i = 0; i < 200; ++i) {
+        const ElasticMaterial strain = material(rng, kCases[1], 0.0), stress = material(rng, kCases[2], 0.0);
+        const Mat<2> eps = emptest::randomSymmetric<2>(rng, 1.0);
+        // Intact (c = 1): sigma_zz = lambda tr(eps) whatever the split; plane stress: 0.
+        EXPECT_NEAR(L::outOfPlaneStress(eps, 1.0, strain), strain.lambda * eps.trace(),
+                    1e-12 * (strain.lambda + strain.mu) * eps.norm()) << L::name;
+        EXPECT_EQ(L::outOfPlaneStress(eps, 0.5, stress), 0.0) << L::name;
+        EXPECT_NEAR(L::waveSpeed(strain), std::sqrt((strain.lambda + 2 * strain.mu) / strain.rho),
+                    1e-12 * L::waveSpeed(strain)) << L::name;
+    }
+}
+
+// --- the laws in the solver (registered laws only: a material selects one by index) ---------
+
+template <class L> int registeredIndex() { return emp::lawIndex(L::name); }
+
+template <class L, int D, class K> void patch(bool planeStress, const Mat<D>& A)
+{
+    const int law = registeredIndex<L>();
+    ASSERT_GE(law, 0);
+    emp::Solver<D, K> s(emptest::typicalSettings(0.01, 2));
+    const int mat = s.addMaterial(2e7, 0.3, 1000, planeStress, law);
+    std::array<int, D> lo, hi;
+    lo.fill(3);
+    hi.fill(D == 2 ? 8 : 6);
+    emptest::addBlock<D>(s, lo, hi, mat);
+    s.initialize();
+    for (int I = 0; I < s.grid().numNodes(); ++I)
+        s.addVelocityCondition({I}, {}, (1u << D) - 1, emptest::to3<D>(A * s.grid().nodePosition(I)), 0.0);
+    const double dt = 0.5 * s.criticalTimeStep();
+    s.step(dt, 1);
+    const Mat<D> eps = 0.5 * dt * (A + A.transpose());
+    const auto r = L::template response<D>(eps, s.materials()[mat]);
+    const Mat<D> sigma = r.sigmaPlus + r.sigmaMinus;
+    const auto& P = s.points();
+    for (std::size_t p = 0; p < P.size(); ++p) {
+        ASSERT_LT((P.strain[p] - eps).norm(), 1e-11 * eps.norm()) << L::name << ", point " << p;
+        ASSERT_LT((P.stress[p] - sigma).norm(), 1e-9 * sigma.norm()) << L::name << ", point " << p;
+        ASSERT_NEAR(P.psiPlus[p], r.psiPlus, 1e-9 * (r.psiPlus + r.psiMinus)) << L::name << ", point " << p;
+    }
+}
+
+template <class L> struct RegisteredLawTest : ::testing::Test {};
+template <class... L> struct AsTypes;
+template <class... L> struct AsTypes<emp::TypeList<L...>> {
+    using type = ::testing::Types<L...>;
+};
+TYPED_TEST_SUITE(RegisteredLawTest, typename AsTypes<emp::RegisteredLaws>::type);
+
+TYPED_TEST(RegisteredLawTest, PatchTestInTheSolver)
+{
+    std::mt19937 rng(17);
+    for (int trial = 0; trial < 2; ++trial) {
+        Mat<2> A2 = emptest::randomSymmetric<2>(rng, 1.0) + emptest::randomRotation<2>(rng);
+        Mat<3> A3 = emptest::randomSymmetric<3>(rng, 1.0);
+        patch<TypeParam, 2, emp::GimpKernel>(false, A2);
+        patch<TypeParam, 2, emp::LinearKernel>(true, A2);
+        patch<TypeParam, 3, emp::GimpKernel>(false, A3);
+    }
+}
+
+/// Points eroded in a free block compressed by prescribed node velocities -r x for 20 steps,
+/// with an erosion stage whose Gc is tiny (any tensile energy erodes).
+template <int D> std::size_t erodedUnderCompression(int law, bool uniaxial)
+{
+    emp::Solver<D, emp::GimpKernel> s(emptest::typicalSettings(0.01, 2));
+    const int mat = s.addMaterial(2e7, 0.25, 1000, D == 2, law);
+    std::array<int, D> lo, hi;
+    lo.fill(3);
+    hi.fill(7);
+    emptest::addBlock<D>(s, lo, hi, mat);
+    s.initialize();
+    Mat<D> A = -Mat<D>::Identity();
+    if (uniaxial) {
+        A.setZero();
+        A(0, 0) = -1.0;
+    }
+    for (int I = 0; I < s.grid().numNodes(); ++I)
+        s.addVelocityCondition({I}, {}, (1u << D) - 1, emptest::to3<D>(A * (s.grid().nodePosition(I) - Vec<D>::Constant(0.05))), 0.0);
+    s.setErosion(std::make_shared<emp::EigenErosion<D>>(emp::ErosionSettings{1e-12, 2.0, 0.011}));
+    const double dt = 0.5 * s.criticalTimeStep();
+    for (int k = 0; k < 20; ++k) s.step(dt, 1);
+    return s.erosion()->erodedCount();
+}
+
+TYPED_TEST(RegisteredLawTest, CompressionErodesOnlyWhereTheLawAllowsIt)
+{
+    using L = TypeParam;
+    const int law = registeredIndex<L>();
+    // Hydrostatic compression (3D; 2D plane stress, where the in-plane -p I is hydrostatic).
+    const std::size_t hydro3 = erodedUnderCompression<3>(law, false), hydro2 = erodedUnderCompression<2>(law, false);
+    // Uniaxial compression: every principal strain <= 0.
+    const std::size_t uni3 = erodedUnderCompression<3>(law, true);
+    if (L::tensionFree == Compression::allPrincipal) {
+        EXPECT_EQ(hydro3 + hydro2 + uni3, 0u) << L::name;
+    } else if (L::tensionFree == Compression::hydrostatic) {
+        EXPECT_EQ(hydro3 + hydro2, 0u) << L::name;
+        EXPECT_GT(uni3, 0u) << L::name << ": uniaxial compression has deviatoric energy";
+    } else {
+        EXPECT_GT(hydro3, 0u) << L::name << ": without a split compression erodes";
+    }
+}
+
+}  // namespace
