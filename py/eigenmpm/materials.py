@@ -1,5 +1,4 @@
 """Continuum materials of EigenMPM."""
-from . import _eigenmpm
 from .params import Param, apply, declare
 
 
@@ -14,19 +13,14 @@ class ElasticMaterial:
     """
 
     params = (
-        Param("E", None, "Pa", "Young's modulus; E > 0"),
-        Param("nu", 0.0, "", "Poisson's ratio; -1 < nu < 0.5"),
-        Param("rho", None, "kg/m3", "mass density; rho > 0"),
+        Param("E", None, "Pa", "Young's modulus", kind="float", bounds="(0, inf)", required=True),
+        Param("nu", 0.0, "", "Poisson's ratio", bounds="(-1, 0.5)"),
+        Param("rho", None, "kg/m3", "mass density", kind="float", bounds="(0, inf)", required=True),
         Param("planeStress", False, "", "2D only: plane stress instead of plane strain"),
     )
 
     def __init__(self, **kw):
         apply(self, self.params, kw, "ElasticMaterial")
-        for name in ("E", "rho"):
-            if getattr(self, name) is None:
-                raise TypeError(f"ElasticMaterial: parameter {name} is required")
-        _eigenmpm.checkElasticMaterial(float(self.E), float(self.nu), float(self.rho), bool(self.planeStress))
 
     def __repr__(self):
-        return (f"ElasticMaterial(E={self.E!r}, nu={self.nu!r}, rho={self.rho!r}, "
-                f"planeStress={self.planeStress!r})")
+        return f"ElasticMaterial({', '.join(f'{p.name}={getattr(self, p.name)!r}' for p in self.params)})"
