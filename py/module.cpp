@@ -293,8 +293,8 @@ template <class Sv> struct Bind {
     {
         bp::class_<Sv, std::shared_ptr<Sv>, boost::noncopyable>(name, bp::no_init)
             .def("__init__", bp::make_constructor(&make, bp::default_call_policies(),
-                                                  (bp::arg("h"), bp::arg("ppc") = 2, bp::arg("massCutoff") = 1e-14,
-                                                   bp::arg("padding") = 3)))
+                                                  (bp::arg("h"), bp::arg("ppc"), bp::arg("massCutoff"),
+                                                   bp::arg("padding"))))
             .add_property("dim", +[](const Sv&) { return D; })
             .add_property("time", &Sv::time, &Sv::setTime)
             .add_property("steps", &Sv::steps)
@@ -302,18 +302,18 @@ template <class Sv> struct Bind {
             .add_property("numNodes", +[](const Sv& s) { return s.grid().numNodes(); })
             .add_property("initialized", &Sv::initialized)
             .add_property("gravity", &gravity, &setGravity)
-            .def("addMaterial", &Sv::addMaterial, (bp::arg("E"), bp::arg("nu"), bp::arg("rho"), bp::arg("planeStress") = false))
+            .def("addMaterial", &Sv::addMaterial, (bp::arg("E"), bp::arg("nu"), bp::arg("rho"), bp::arg("planeStress")))
             .def("materialInfo", &materialInfo)
             .def("addPoints", &addPoints, (bp::arg("positions"), bp::arg("velocities"), bp::arg("volumes"), bp::arg("material")))
             .def("setDomain", &setDomain)
             .def("initialize", &Sv::initialize)
             .def("addVelocityCondition", &addVelocityCondition,
-                 (bp::arg("nodes"), bp::arg("points"), bp::arg("mask"), bp::arg("velocity"), bp::arg("rampTime") = 0.0))
+                 (bp::arg("nodes"), bp::arg("points"), bp::arg("mask"), bp::arg("velocity"), bp::arg("rampTime")))
             .def("setConditionVelocity", &setConditionVelocity)
             .def("addTraction", &addTraction, (bp::arg("points"), bp::arg("traction"), bp::arg("rampTime"), bp::arg("layer")))
             .def("reaction", &reaction)
             .def("criticalTimeStep", &Sv::criticalTimeStep)
-            .def("step", &step, (bp::arg("dt"), bp::arg("nThreads") = 1))
+            .def("step", &step, (bp::arg("dt"), bp::arg("nThreads")))
             .def("kineticEnergy", &Sv::kineticEnergy)
             .def("elasticEnergy", &Sv::elasticEnergy)
             .def("positions", &positions)
@@ -337,7 +337,7 @@ template <class Sv> struct Bind {
             .add_property("numCracks", +[](const Sv& s) { return static_cast<int>(s.phantomNodes().numCracks()); })
             .add_property("numTwins", +[](const Sv& s) { return s.phantomNodes().numTwins(); })
             .def("markedNodes", &markedNodes)
-            .def("energyReleaseRate", &energyReleaseRate, (bp::arg("ids"), bp::arg("bruteForce") = false))
+            .def("energyReleaseRate", &energyReleaseRate, (bp::arg("ids"), bp::arg("bruteForce")))
             .add_property("erosion", +[](const Sv& s) { return s.erosion(); });
     }
 };
@@ -347,10 +347,6 @@ template <class Sv> struct Bind {
 BOOST_PYTHON_MODULE(_eigenmpm)
 {
     np::initialize();
-    bp::def("checkElasticMaterial",
-            +[](double E, double nu, double rho, bool planeStress) { ElasticMaterial::make(E, nu, rho, planeStress, 3); },
-            (bp::arg("E"), bp::arg("nu"), bp::arg("rho"), bp::arg("planeStress") = false),
-            "Raises ValueError naming the first of E, nu, rho outside its allowed range.");
     BindErosion<2>::expose("Erosion2");
     BindErosion<3>::expose("Erosion3");
     Bind<Solver2Linear>::expose("Solver2Linear");
