@@ -217,7 +217,7 @@ class Param:
             lo, hi = value
         except (TypeError, ValueError):
             self._refuse(value, owner, TypeError)
-        return self._vector(lo, owner), self._vector(hi, owner)
+        return self._whole(value, owner, lambda: (self._vector(lo, owner), self._vector(hi, owner)))
 
     def _points(self, value, owner):
         if isinstance(value, str):
@@ -226,7 +226,14 @@ class Param:
             items = list(value)
         except TypeError:
             self._refuse(value, owner, TypeError)
-        return [self._vector(p, owner) for p in items]
+        return self._whole(value, owner, lambda: [self._vector(p, owner) for p in items])
+
+    def _whole(self, value, owner, convert):
+        """convert(), refused in the name of the whole value (not of the one vector that failed)."""
+        try:
+            return convert()
+        except (TypeError, ValueError) as err:
+            self._refuse(value, owner, type(err))
 
     def _object(self, value, owner):
         return value
