@@ -27,8 +27,8 @@ class VTKRecorder(PyRunner):
     """Writes the material points of an MpmEngine as VTK XML poly data (``.vtp``, one file per
     record) plus a ParaView collection ``<fileName>.pvd`` with the time of each file. Point data:
     velocity, displacement, stress and strain (3x3), psiPlus, H (history), damage, material.
-    Periodic like YADE's VTKRecorder (iterPeriod or virtPeriod). When the solver stops on an
-    error, the state at that moment is written as ``<fileName>failure.vtp``.
+    Periodic like YADE's VTKRecorder (iterPeriod or virtPeriod, one of them > 0). When the
+    solver stops on an error, the state at that moment is written as ``<fileName>failure.vtp``.
 
     Example::
 
@@ -125,6 +125,7 @@ class VTKRecorder(PyRunner):
 class PlotRecorder(PyRunner):
     """Adds the MpmEngine's diagnostics to ``yade.plot`` every period: ``t`` (s), ``iter``, and
     ``<label>_Ek``, ``<label>_Ee`` (J) and ``<label>_<bc>_Rx`` ... (N) from MpmEngine.plotData.
+    The period is iterPeriod or virtPeriod (one of them > 0).
 
     Example::
 
