@@ -72,9 +72,12 @@ def main():
         mpm.addPoints(pos, mat, vol, vel)
 
         def bareSolver():
-            s = _eigenmpm.solvers[(2, 'ugimp')](h=0.01, ppc=2, massCutoff=1e-14, padding=3, gravity=(0, 0, 0))
+            # the engine's and the material's declared values, so that the states compare bitwise
+            s = _eigenmpm.solvers[(2, 'ugimp')](h=mpm.h, ppc=mpm.ppc, massCutoff=mpm.massCutoff,
+                                                padding=mpm.padding, gravity=mpm.gravity)
             s.addPoints(np.ascontiguousarray(pos), np.ascontiguousarray(vel), np.full(len(pos), vol),
-                        s.addMaterial(E=1e7, nu=0.3, rho=1000, planeStress=False, split='spectral'))
+                        s.addMaterial(E=mat.E, nu=mat.nu, rho=mat.rho, planeStress=mat.planeStress,
+                                      split=mat.split))
             return s
 
         bare, viaRunner = bareSolver(), bareSolver()

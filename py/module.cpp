@@ -329,12 +329,12 @@ template <class Sv> struct Bind {
             .def("setDomain", &setDomain)
             .def("initialize", &Sv::initialize)
             .def("addVelocityCondition", &addVelocityCondition,
-                 (bp::arg("nodes"), bp::arg("points"), bp::arg("mask"), bp::arg("velocity"), bp::arg("rampTime") = 0.0))
+                 (bp::arg("nodes"), bp::arg("points"), bp::arg("mask"), bp::arg("velocity"), bp::arg("rampTime")))
             .def("setConditionVelocity", &setConditionVelocity)
             .def("addTraction", &addTraction, (bp::arg("points"), bp::arg("traction"), bp::arg("rampTime"), bp::arg("layer")))
             .def("reaction", &reaction)
             .def("criticalTimeStep", &Sv::criticalTimeStep)
-            .def("step", &step, (bp::arg("dt"), bp::arg("nThreads") = 1))
+            .def("step", &step, (bp::arg("dt"), bp::arg("nThreads")))
             .def("kineticEnergy", &Sv::kineticEnergy)
             .def("elasticEnergy", &Sv::elasticEnergy)
             .def("positions", &positions)
@@ -358,7 +358,7 @@ template <class Sv> struct Bind {
             .add_property("numCracks", +[](const Sv& s) { return static_cast<int>(s.phantomNodes().numCracks()); })
             .add_property("numTwins", +[](const Sv& s) { return s.phantomNodes().numTwins(); })
             .def("markedNodes", &markedNodes)
-            .def("energyReleaseRate", &energyReleaseRate, (bp::arg("ids"), bp::arg("bruteForce") = false))
+            .def("energyReleaseRate", &energyReleaseRate, (bp::arg("ids"), bp::arg("bruteForce")))
             .add_property("erosion", +[](const Sv& s) { return s.erosion(); });
     }
 };
@@ -368,12 +368,6 @@ template <class Sv> struct Bind {
 BOOST_PYTHON_MODULE(_eigenmpm)
 {
     np::initialize();
-    bp::def("checkElasticMaterial",
-            +[](double E, double nu, double rho, bool planeStress, const std::string& split) {
-                ElasticMaterial::make(E, nu, rho, planeStress, 3, lawId(split));
-            },
-            (bp::arg("E"), bp::arg("nu"), bp::arg("rho"), bp::arg("planeStress"), bp::arg("split")),
-            "Raises ValueError naming the first of E, nu, rho, split outside its allowed range.");
     bp::def("lawNames", +[] {
         bp::list l;
         for (const auto& n : lawNames()) l.append(n);
@@ -381,12 +375,13 @@ BOOST_PYTHON_MODULE(_eigenmpm)
     }, "Names of the registered constitutive laws (ElasticMaterial(split=...)), in index order.");
     BindErosion<2>::expose("Erosion2");
     BindErosion<3>::expose("Erosion3");
-    // One class per configuration (Configurations.hpp), named Solver<D><kernel name>, and the
+    // One class per configuration (Configurations.hpp), named Solver<D><Kernel name>, and the
     // dict solvers[(dim, kernel name in lower case)] = class for the engines.
     bp::dict solvers;
 #define EMP_EXPOSE(D, K)                                                                  \
     {                                                                                     \
-        const std::string name = std::string("Solver") + std::to_string(D) + K::name;     \
+        std::string name = std::string("Solver") + std::to_string(D) + K::name;           \
+        name[7] = static_cast<char>(std::toupper(name[7]));                               \
         Bind<Solver<D, K>>::expose(name.c_str());                                         \
         std::string key = K::name;                                                        \
         for (auto& ch : key) ch = static_cast<char>(std::tolower(ch));                    \
@@ -395,4 +390,11 @@ BOOST_PYTHON_MODULE(_eigenmpm)
     EMP_SOLVER_CONFIGURATIONS(EMP_EXPOSE)
 #undef EMP_EXPOSE
     bp::scope().attr("solvers") = solvers;
+    // The shape names in the user's spelling (MpmEngine(shape=...)), each once, in list order.
+    bp::list shapes;
+#define EMP_SHAPE(D, K) \
+    if (!shapes.contains(K::name)) shapes.append(K::name);
+    EMP_SOLVER_CONFIGURATIONS(EMP_SHAPE)
+#undef EMP_SHAPE
+    bp::scope().attr("shapes") = shapes;
 }

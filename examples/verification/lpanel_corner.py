@@ -57,7 +57,7 @@ def main(argv):
     F = float(np.mean(F))
     x = mpm.solver.positions()[:, :2]
     near = np.nonzero(np.hypot(x[:, 0] - a, x[:, 1] - a) < 3 * h)[0]
-    G = np.asarray(mpm.solver.energyReleaseRate(near.tolist()))
+    G = np.asarray(mpm.solver.energyReleaseRate(near.tolist(), bruteForce=False))
     k = int(np.argmax(G))
     # How psi+ falls with the distance r from the corner in the sector where the crack runs
     # (150-210 deg, 3-30 mm; ring means): Williams' leading term gives r^-0.91 for 270 deg.

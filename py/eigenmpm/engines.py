@@ -11,7 +11,7 @@ import numpy as np
 from yade import O, PyRunner
 
 from . import _eigenmpm
-from .params import Param, apply, declare, vec3
+from .params import Param, apply, declare, takes, vec3
 
 _registry = {}
 _keys = itertools.count()
@@ -53,9 +53,9 @@ def criticalTimeStep(engine=None):
 
 def _mask(components, dim):
     axes = "xyz"[:dim]
-    if not components or any(c not in axes for c in components):
-        raise ValueError(f"EigenMPM: components = {components!r} is invalid; allowed: a non-empty "
-                         f"string of the letters {axes!r}")
+    if not set(components) <= set(axes):  # the declaration allows 'z'; a 2D engine does not
+        raise ValueError(f"EigenMPM: components = {components!r} is invalid; allowed: letters of "
+                         f"{axes!r} in {dim}D")
     return sum(1 << axes.index(c) for c in set(components))
 
 
@@ -86,8 +86,34 @@ def _vector(t):
         return tuple(t)
 
 
-# (dim, shape name in lower case) -> solver class, for every configuration the core is built for.
+_SELECTION = "a predicate (yade.pack or a callable pred(x, pad)) or a list of ids"
+
+
+def _isSelection(sel):
+    if callable(sel) or hasattr(sel, "aabb"):
+        return True
+    ids = np.asarray(sel)
+    return ids.ndim == 1 and (ids.size == 0 or np.issubdtype(ids.dtype, np.integer))
+
+
+# Arguments shared by the velocity conditions (velocityBC and fix).
+_REGION = Param("region", None, "", "the grid nodes: a predicate on node positions or node indices, "
+                                    "chosen once", kind="object", accepts=_SELECTION, check=_isSelection)
+_POINTS = Param("points", None, "", "the points whose nearest nodes are prescribed each step: a "
+                                    "predicate on the points' initial positions or point ids",
+                kind="object", accepts=_SELECTION, check=_isSelection)
+_COMPONENTS = Param("components", None, "", "the prescribed components, e.g. 'x' or 'xy'; default: all",
+                    kind="str", accepts="non-empty string of the letters x, y (and z in 3D)",
+                    check=lambda c: c != "" and set(c) <= set("xyz"))
+_RAMP = Param("rampTime", 0.0, "s", "time over which the value rises linearly from 0 (paper Eq 34)",
+              bounds="[0, inf)")
+_LABEL = Param("label", None, "", "name of the condition in bcs and plotData; default 'bc<id>'", kind="str")
+
+
+# (dim, shape name in lower case) -> solver class, for every configuration the core is built for
+# (pkg/Configurations.hpp), and the shape names in their user's spelling.
 _SOLVERS = dict(_eigenmpm.solvers)
+_SHAPES = tuple(_eigenmpm.shapes)
 
 
 @declare
@@ -109,42 +135,35 @@ class MpmEngine(PyRunner):
     """
 
     params = (
-        Param("dim", 2, "", "spatial dimension, 2 or 3 (2D runs native 2D kernels)"),
-        Param("h", None, "m", "cell size of the background grid; h > 0"),
+        Param("label", "mpm", "", "YADE label of the engine; it prefixes the keys of plotData()"),
+        Param("dim", 2, "", "spatial dimension (2D runs native 2D kernels)", choices=(2, 3)),
+        Param("h", None, "m", "cell size of the background grid", kind="float", bounds="(0, inf)",
+              required=True),
         Param("ppc", 2, "", "material points per cell per direction used by fill() and by the "
-                            "uGIMP particle half-width h/(2 ppc); ppc >= 1"),
-        Param("shape", "uGIMP", "", "shape functions: 'uGIMP' (paper Eq 16) or 'linear' (standard MPM)"),
+                            "uGIMP particle half-width h/(2 ppc)", bounds="[1, 64]"),
+        Param("shape", "uGIMP", "", "shape functions: 'uGIMP' (paper Eq 16) or 'linear' (standard MPM)",
+              choices=_SHAPES),
         Param("thickness", 1.0, "m", "out-of-plane thickness of a 2D model (point volume = area x "
-                                     "thickness; forces and energies are for this thickness)"),
+                                     "thickness; forces and energies are for this thickness)",
+              bounds="(0, inf)"),
         Param("gravity", (0.0, 0.0, 0.0), "m/s2", "body force per unit mass"),
         Param("domain", None, "m", "(lo, hi) corners of the grid; default: bounding box of the points "
-                                   "plus `padding` cells, fixed at the first step"),
-        Param("padding", 3, "cells", "cells added around the points when the grid is sized automatically"),
+                                   "plus `padding` cells, fixed at the first step", kind="box"),
+        Param("padding", 3, "cells", "cells added around the points when the grid is sized automatically",
+              bounds="[1, inf)"),
         Param("massCutoff", 1e-14, "", "nodes lighter than this fraction of the mean point mass carry "
-                                      "no velocity (small-mass cut-off)"),
-        Param("threads", None, "", "OpenMP threads; default O.numThreads (yade -j N)"),
+                                      "no velocity (small-mass cut-off)", bounds="[0, 1)"),
+        Param("threads", None, "", "OpenMP threads; default O.numThreads (yade -j N)", kind="int",
+              bounds="[1, inf)"),
     )
 
-    def __init__(self, label="mpm", **kw):
+    def __init__(self, **kw):
         PyRunner.__init__(self)
         apply(self, self.params, kw, "MpmEngine")
-        if self.dim not in (2, 3):
-            raise ValueError(f"EigenMPM: dim = {self.dim!r} is invalid; allowed: 2 or 3")
-        shape = str(self.shape).lower()
-        if shape not in ("linear", "ugimp"):
-            raise ValueError(f"EigenMPM: shape = {self.shape!r} is invalid; allowed: 'uGIMP' or 'linear'")
-        if self.h is None:
-            raise TypeError("MpmEngine: parameter h (cell size, m) is required")
-        if not self.thickness > 0:
-            raise ValueError(f"EigenMPM: thickness = {self.thickness!r} is invalid; allowed: thickness > 0")
-        self.solver = _SOLVERS[(self.dim, shape)](h=float(self.h), ppc=int(self.ppc),
-                                                  massCutoff=float(self.massCutoff),
-                                                  padding=int(self.padding),
-                                                  gravity=vec3(self.gravity, "gravity"))
+        self.solver = _SOLVERS[(self.dim, self.shape.lower())](h=self.h, ppc=self.ppc, massCutoff=self.massCutoff,
+                                                               padding=self.padding, gravity=self.gravity)
         if self.domain is not None:
-            lo, hi = self.domain
-            self.solver.setDomain(vec3(lo, "domain lo"), vec3(hi, "domain hi"))
-        self.label = label
+            self.solver.setDomain(*self.domain)
         self.iterPeriod, self.initRun = 1, True
         self.command = _register(self)
         self.bcs = {}
@@ -200,14 +219,24 @@ class MpmEngine(PyRunner):
         return select(self.solver.nodePositions(), predicate, pad, self.dim)
 
     # --- boundary conditions --------------------------------------------------------------
-    def velocityBC(self, region=None, points=None, components=None, velocity=(0, 0, 0),
-                   rampTime=0.0, label=None):
-        """Prescribes the velocity (m/s) of grid nodes on the given components ('x', 'xy', ...;
-        default all). Nodes are chosen by `region` (a predicate on node positions, or node
-        indices) once, or by `points` (a predicate on the points' initial positions, or point
-        ids): then each step the node nearest to each of these points. `velocity` is a vector or a
-        function of time returning one; with rampTime t0 > 0 it rises linearly from 0 to its value
-        over t0 (paper Eq 34). Returns a VelocityBC whose ``reaction`` is the force it exerts."""
+    @takes(_REGION, _POINTS, _COMPONENTS,
+           Param("velocity", (0.0, 0.0, 0.0), "m/s", "the prescribed velocity, or a function of the time "
+                                                    "t (s) returning it", function=True),
+           _RAMP, _LABEL)
+    def velocityBC(self, region, points, components, velocity, rampTime, label):
+        """Prescribes the velocity (m/s) of grid nodes on the given components. Nodes are chosen by
+        `region` once, or by `points`: then each step the node nearest to each of these points.
+        With rampTime t0 > 0 the velocity rises linearly from 0 to its value over t0 (paper
+        Eq 34). Returns a VelocityBC whose ``reaction`` is the force it exerts."""
+        return self._velocityCondition(region, points, components, velocity, rampTime, label)
+
+    @takes(_REGION, _POINTS, _COMPONENTS, _LABEL)
+    def fix(self, region, points, components, label):
+        """Zero velocity on the given components: a fixed support (all components) or a
+        symmetry/roller plane (the normal component only). Returns a VelocityBC."""
+        return self._velocityCondition(region, points, components, (0.0, 0.0, 0.0), 0.0, label)
+
+    def _velocityCondition(self, region, points, components, velocity, rampTime, label):
         if (region is None) == (points is None):
             raise ValueError("EigenMPM: velocityBC needs exactly one of region= or points=")
         nodes = [] if region is None else self._indices(region, self.nodesIn)
@@ -215,38 +244,36 @@ class MpmEngine(PyRunner):
         if len(nodes) == 0 and len(pts) == 0:
             raise ValueError(f"EigenMPM: velocityBC {label!r} selects no node and no point; check the region")
         mask = _mask(components or "xyz"[:self.dim], self.dim)
-        v0 = (0.0, 0.0, 0.0) if callable(velocity) else vec3(velocity, "velocity")
-        if not rampTime >= 0:
-            raise ValueError(f"EigenMPM: rampTime = {rampTime!r} is invalid; allowed: rampTime >= 0")
-        cid = self.solver.addVelocityCondition([int(i) for i in nodes], [int(i) for i in pts],
-                                               mask, v0, float(rampTime))
+        v0 = (0.0, 0.0, 0.0) if callable(velocity) else velocity
+        cid = self.solver.addVelocityCondition([int(i) for i in nodes], [int(i) for i in pts], mask, v0, rampTime)
         label = label or f"bc{cid}"
         bc = VelocityBC(self, cid, label, velocity, rampTime)
         self.bcs[label] = bc
         return bc
 
-    def fix(self, region=None, points=None, components=None, label=None):
-        """Zero velocity on the given components: a fixed support (all components) or a
-        symmetry/roller plane (the normal component only)."""
-        return self.velocityBC(region=region, points=points, components=components, label=label)
-
-    def traction(self, points, traction, rampTime=0.0, layer=None):
-        """Applies a traction (Pa, vector) on boundary points (predicate or ids) as the nodal force
-        N t V_p / layer of paper Eq 28; `layer` (default h) is the thickness of the band of points
-        selected at the surface."""
+    @takes(Param("points", None, "", "the loaded boundary points: a predicate on their current "
+                                     "positions (yade.pack) or point ids", kind="object",
+                 accepts=_SELECTION, check=_isSelection, required=True),
+           Param("traction", None, "Pa", "the traction vector", kind="vector", required=True),
+           _RAMP,
+           Param("layer", None, "m", "thickness of the band of points selected at the surface; "
+                                     "default: the cell size h", kind="float", bounds="(0, inf)"))
+    def traction(self, points, traction, rampTime, layer):
+        """Applies a traction on boundary points as the nodal force N t V_p / layer of paper Eq 28.
+        Returns the id of the condition."""
         pts = self._indices(points, self.pointsIn)
         if len(pts) == 0:
             raise ValueError("EigenMPM: traction selects no point; check the predicate")
-        return self.solver.addTraction([int(i) for i in pts], vec3(traction, "traction"),
-                                       float(rampTime), float(self.h if layer is None else layer))
+        return self.solver.addTraction([int(i) for i in pts], traction, rampTime, self.h if layer is None else layer)
 
+    @takes(Param("vertices", None, "m", "in 2D a segment or polyline (2 or more points), in 3D a planar "
+                                       "polygon (3 or more points), in scene coordinates (z ignored in 2D)",
+                 kind="points", required=True))
     def crack(self, vertices):
-        """Adds a pre-existing crack (phantom nodes, paper Section 3.3.1): in 2D a segment or
-        polyline (list of 2 or more points), in 3D a planar polygon (3 or more points), in scene
-        coordinates (Vector3 or tuples; z ignored in 2D). An edge notch starts on (or beyond) the
-        body's boundary, an interior crack inside it; several cracks are allowed. The crack then
-        moves with the material. Returns the crack id."""
-        return self.solver.addCrack([vec3(v, "crack vertex") for v in vertices])
+        """Adds a pre-existing crack (phantom nodes, paper Section 3.3.1). An edge notch starts on
+        (or beyond) the body's boundary, an interior crack inside it; several cracks are allowed.
+        The crack then moves with the material. Returns the crack id."""
+        return self.solver.addCrack(vertices)
 
     def crackVertices(self, crackId=0):
         """Current vertices of a crack (they move with the material)."""
@@ -305,6 +332,12 @@ class MpmEngine(PyRunner):
         for phys in self.physics.values():
             d.update(phys.plotData())
         return d
+
+
+# The engine a physics or output engine works for, shared by their declarations.
+ENGINE = Param("engine", None, "", "the MpmEngine (object or label); default: the only one in O.engines",
+               kind="object", accepts="an MpmEngine or its label",
+               check=lambda e: isinstance(e, (MpmEngine, str)))
 
 
 class _Call:

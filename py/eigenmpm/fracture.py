@@ -6,8 +6,8 @@ import numpy as np
 from yade import O, PyRunner
 
 from . import _eigenmpm
-from .engines import _register, findEngine
-from .params import Param, apply, declare, vec3
+from .engines import ENGINE, _register, findEngine
+from .params import Param, apply, declare
 
 
 def linked(x, seed, radius):
@@ -52,35 +52,33 @@ class EigenErosion(PyRunner):
     """
 
     params = (
-        Param("engine", None, "", "the MpmEngine (object or label; default: the only one)"),
-        Param("Gc", None, "J/m2", "critical energy release rate; Gc > 0"),
-        Param("alpha", 1.5, "", "normalising constant of Eq 23 (paper: 1 to 2); alpha > 0"),
-        Param("kappa", None, "m", "neighbourhood radius; kappa > 0 (give kappa or kappaOverH)"),
-        Param("kappaOverH", None, "", "neighbourhood radius as a multiple of the cell size h"),
+        Param("label", "erosion", "", "YADE label of the engine; it prefixes the keys of plotData()"),
+        ENGINE,
+        Param("Gc", None, "J/m2", "critical energy release rate", kind="float", bounds="(0, inf)",
+              required=True),
+        Param("alpha", 1.5, "", "normalising constant of Eq 23 (paper: 1 to 2)", bounds="(0, inf)"),
+        Param("kappa", None, "m", "neighbourhood radius (give kappa or kappaOverH)", kind="float",
+              bounds="(0, inf)"),
+        Param("kappaOverH", None, "", "neighbourhood radius as a multiple of the cell size h", kind="float",
+              bounds="(0, inf)"),
         Param("origin", None, "m", "crack origin for tip tracking (e.g. the pre-crack tip); "
-                                   "default: the first eroded point"),
+                                   "default: the first eroded point", kind="vector"),
         Param("tipWindow", None, "s", "erosions within this time before a record can be tips, and "
-                                      "the window of the tip speed; default 50 O.dt"),
-        Param("iterPeriod", 100, "iterations", "period of the diagnostics record"),
+                                      "the window of the tip speed; default 50 O.dt", kind="float",
+              bounds="(0, inf)"),
+        Param("iterPeriod", 100, "iterations", "period of the diagnostics record", bounds="[1, inf)"),
     )
 
-    def __init__(self, label="erosion", **kw):
+    def __init__(self, **kw):
         PyRunner.__init__(self)
         apply(self, self.params, kw, "EigenErosion")
-        if self.Gc is None:
-            raise TypeError("EigenErosion: parameter Gc (J/m2) is required")
         if (self.kappa is None) == (self.kappaOverH is None):
-            raise TypeError("EigenErosion: give exactly one of kappa (m) or kappaOverH")
-        for name in ("Gc", "alpha", "kappa", "kappaOverH"):
-            v = getattr(self, name)
-            if v is not None and not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise ValueError(f"EigenErosion: {name} = {v!r} is invalid; allowed: {name} > 0")
-        self.label, self.initRun = label, True
-        self.iterPeriod = int(self.iterPeriod)
+            raise TypeError("EigenMPM: give exactly one of kappa (m) or kappaOverH (EigenErosion)")
+        self.initRun = True
         self.command = _register(self)
         self.core = None
         self.history = []  # (time, dissipated J, eroded count, front distance m, tip positions)
-        self._origin = None if self.origin is None else np.array(vec3(self.origin, "origin"))
+        self._origin = None if self.origin is None else np.array(self.origin)
         if self.engine is not None and not isinstance(self.engine, str):
             self.attach(self.engine)
 
@@ -102,7 +100,7 @@ class EigenErosion(PyRunner):
                           f"{low:.4g} to {high:.4g} m of Appendix A (Eq A3) for h = {mpm.h:.4g} m",
                           stacklevel=2)
         cls = _eigenmpm.Erosion2 if mpm.dim == 2 else _eigenmpm.Erosion3
-        self.core = cls(Gc=float(self.Gc), alpha=float(self.alpha), kappa=float(kappa))
+        self.core = cls(Gc=self.Gc, alpha=self.alpha, kappa=kappa)
         mpm.solver.setErosion(self.core)
         mpm.physics[self.label] = self
         self._mpm = mpm

@@ -15,23 +15,18 @@ class ElasticMaterial:
     """
 
     params = (
-        Param("E", None, "Pa", "Young's modulus; E > 0"),
-        Param("nu", 0.0, "", "Poisson's ratio; -1 < nu < 0.5"),
-        Param("rho", None, "kg/m3", "mass density; rho > 0"),
+        Param("E", None, "Pa", "Young's modulus", kind="float", bounds="(0, inf)", required=True),
+        Param("nu", 0.0, "", "Poisson's ratio", bounds="(-1, 0.5)"),
+        Param("rho", None, "kg/m3", "mass density", kind="float", bounds="(0, inf)", required=True),
         Param("planeStress", False, "", "2D only: plane stress instead of plane strain"),
         Param("split", "spectral", "", "tension/compression split of the strain energy (which part "
                                        "drives fracture): 'spectral' (the paper's, Eqs 2-7), "
-                                       "'volumetric' (Amor et al. 2009) or 'none'; see doc/fracture.md"),
+                                       "'volumetric' (Amor et al. 2009) or 'none'; see doc/fracture.md",
+              choices=tuple(_eigenmpm.lawNames())),
     )
 
     def __init__(self, **kw):
         apply(self, self.params, kw, "ElasticMaterial")
-        for name in ("E", "rho"):
-            if getattr(self, name) is None:
-                raise TypeError(f"ElasticMaterial: parameter {name} is required")
-        _eigenmpm.checkElasticMaterial(float(self.E), float(self.nu), float(self.rho), bool(self.planeStress),
-                                       str(self.split))
 
     def __repr__(self):
-        return (f"ElasticMaterial(E={self.E!r}, nu={self.nu!r}, rho={self.rho!r}, "
-                f"planeStress={self.planeStress!r}, split={self.split!r})")
+        return f"ElasticMaterial({', '.join(f'{p.name}={getattr(self, p.name)!r}' for p in self.params)})"

@@ -1,43 +1,334 @@
-"""Parameters declared once: name, default, unit and docstring.
+"""Parameters declared once: name, default, unit, allowed values and docstring.
 
-Engines list their parameters in a ``params`` tuple; :func:`declare` builds the class
-docstring from it (so ``help(eigenmpm.MpmEngine)`` and the reference in ``doc/`` agree with
-the code) and :func:`apply` sets them on an instance from keyword arguments, refusing unknown
-names.
+An engine or material lists its parameters in a ``params`` tuple of :class:`Param`; a method
+declares its keyword arguments with :func:`takes`. From that one declaration come
+- the validation: :func:`apply` / :func:`values` check every value before anything is built
+  and fail with ``EigenMPM: <name> = <value> is invalid; allowed: <range>``, then convert it
+  to a plain Python type (so numpy scalars and YADE vectors are accepted);
+- the class docstring (:func:`declare`), so ``help(eigenmpm.MpmEngine)`` shows the table;
+- the reference pages ``doc/reference/<Class>.md`` (``tools/paramdoc.py``).
+The C++ core takes every value from here and has no defaults of its own.
 """
+import functools
+import inspect
+import math
+import numbers
+import re
+
+import numpy as np
+
+KINDS = ("float", "int", "bool", "str", "vector", "box", "points", "object")
+
+_INTERVAL = re.compile(r"^\s*([\[(])\s*([^,\s]+)\s*,\s*([^,\s]+)\s*([\])])\s*$")
+
+
+def _fmt(x):
+    """A bound as written by hand: 0, 0.5, 64, 1e-14."""
+    return str(int(x)) if float(x).is_integer() and abs(x) < 1e15 else repr(float(x))
+
+
+def _shown(value):
+    """repr of a value, with numpy scalars shown as the Python number they hold."""
+    if hasattr(value, "item") and getattr(value, "shape", None) == ():
+        return repr(value.item())
+    return repr(value)
 
 
 class Param:
-    """One user parameter: its name, default value, unit (may be empty) and description."""
+    """One user parameter.
 
-    def __init__(self, name, default, unit, doc):
+    Param(name, default, unit, doc, kind=None, bounds=None, choices=None, required=False,
+          function=False, accepts=None, check=None)
+
+    name      the keyword the user writes
+    default   the value when the keyword is not given; None means "automatic" (the doc says
+              what that is) unless `required`
+    unit      SI unit ('' for none)
+    doc       one sentence or two: what it is, what it changes
+    kind      one of KINDS; inferred from the default when it is a bool, int, float, str or a
+              tuple of numbers (vector)
+                float   finite real number (numpy scalars accepted) -> float
+                int     integer (an integral float such as 2.0 too, never 2.7) -> int
+                bool    True or False (numpy bool accepted) -> bool
+                str     a string; with `choices` matched case-insensitively -> the declared spelling
+                vector  2 or 3 finite components (Vector3, tuple, list, array) -> 3-tuple of floats
+                box     (lo, hi), two vectors -> (3-tuple, 3-tuple)
+                points  a list of vectors -> list of 3-tuples
+                object  anything `check` accepts (an engine, a predicate, ids, a stream)
+    bounds    interval of a number, written "(0, inf)", "[1, 64]", "(-1, 0.5)", "[0, 1)":
+              round brackets are open ends, square ones closed
+    choices   the allowed values (strings compared case-insensitively)
+    required  no default: the user must give it
+    function  a function may be given instead (e.g. velocity(t)); it is kept as is
+    accepts   the allowed values in words, where bounds and choices do not say it
+    check     function(value) -> bool, for `object` and for rules the kind cannot express
+    """
+
+    def __init__(self, name, default, unit, doc, kind=None, bounds=None, choices=None, required=False,
+                 function=False, accepts=None, check=None):
         self.name, self.default, self.unit, self.doc = name, default, unit, doc
+        self.kind = kind or self._inferKind(default)
+        if self.kind not in KINDS:
+            raise ValueError(f"Param {name}: kind {self.kind!r} is not one of {KINDS}")
+        self.required, self.function, self.accepts, self.checker = required, function, accepts, check
+        self.choices = tuple(choices) if choices is not None else None
+        self.bounds = self._parseBounds(bounds) if bounds is not None else None
+        if self.bounds and self.kind not in ("float", "int"):
+            raise ValueError(f"Param {name}: bounds need kind float or int, not {self.kind}")
+        if required and default is not None:
+            raise ValueError(f"Param {name}: a required parameter has no default")
+        if self.kind == "object" and check is None:
+            raise ValueError(f"Param {name}: kind object needs check=")
+        if default is not None:
+            self.default = self.validate(default, f"declaration of {name}")  # a bad default fails at import
+
+    @staticmethod
+    def _inferKind(default):
+        if isinstance(default, bool):
+            return "bool"
+        if isinstance(default, numbers.Integral):
+            return "int"
+        if isinstance(default, numbers.Real):
+            return "float"
+        if isinstance(default, str):
+            return "str"
+        if isinstance(default, tuple):
+            return "vector"
+        raise ValueError(f"Param: give kind= for a default of {default!r}")
+
+    def _parseBounds(self, text):
+        m = _INTERVAL.match(text)
+        if not m:
+            raise ValueError(f"Param {self.name}: bounds {text!r} is not an interval like '(0, inf)' or '[1, 64]'")
+        lo, hi = float(m.group(2)), float(m.group(3))
+        if not lo < hi:
+            raise ValueError(f"Param {self.name}: bounds {text!r} is empty")
+        return lo, m.group(1) == "[", hi, m.group(4) == "]"
+
+    # --- the allowed values in words ---------------------------------------------------------
+    def rangeText(self):
+        """The allowed values as the messages and the docs write them, e.g. '-1 < nu < 0.5'."""
+        if self.accepts:
+            return self.accepts
+        if self.choices is not None:
+            *first, last = [repr(c) for c in self.choices]
+            text = f"{', '.join(first)} or {last}" if first else last
+            return text + " (any case)" if self.kind == "str" else text
+        if self.bounds:
+            lo, loIn, hi, hiIn = self.bounds
+            n = self.name
+            if math.isinf(hi):
+                text = f"{n} {'>=' if loIn else '>'} {_fmt(lo)}"
+            elif math.isinf(lo):
+                text = f"{n} {'<=' if hiIn else '<'} {_fmt(hi)}"
+            else:
+                text = f"{_fmt(lo)} {'<=' if loIn else '<'} {n} {'<=' if hiIn else '<'} {_fmt(hi)}"
+            return f"integer, {text}" if self.kind == "int" else text
+        return {"float": "finite number", "int": "integer", "bool": "True or False", "str": "string",
+                "vector": "vector of 2 or 3 finite components", "box": "(lo, hi), two vectors",
+                "points": "list of vectors"}[self.kind]
+
+    def allowed(self):
+        """rangeText plus the alternatives None (automatic) and a function."""
+        text = self.rangeText()
+        if self.function:
+            text += ", or a function of time returning one"
+        if self.default is None and not self.required:
+            text += ", or None"
+        return text
+
+    # --- validation --------------------------------------------------------------------------
+    def _refuse(self, value, owner, error=ValueError):
+        unit = f" [{self.unit}]" if self.unit else ""
+        raise error(f"EigenMPM: {self.name} = {_shown(value)} is invalid; allowed: {self.allowed()}{unit} "
+                    f"({owner})")
+
+    def validate(self, value, owner):
+        """The value converted to a plain Python type; ValueError or TypeError naming the parameter,
+        the value and the allowed range when it is not allowed."""
+        if value is None:
+            if self.default is None and not self.required:
+                return None
+            self._refuse(value, owner, TypeError)
+        if self.function and callable(value):
+            return value
+        v = getattr(self, "_" + self.kind)(value, owner)
+        if self.choices is not None:
+            v = self._choose(v, value, owner)
+        if self.bounds:
+            lo, loIn, hi, hiIn = self.bounds
+            if not ((lo <= v if loIn else lo < v) and (v <= hi if hiIn else v < hi)):
+                self._refuse(value, owner)
+        if self.checker is not None and not self.checker(v):
+            self._refuse(value, owner, TypeError if self.kind == "object" else ValueError)
+        return v
+
+    def _choose(self, v, value, owner):
+        for c in self.choices:
+            if v == c or (isinstance(v, str) and v.lower() == c.lower()):
+                return c
+        self._refuse(value, owner)
+
+    def _float(self, value, owner):
+        if isinstance(value, str) or _isBool(value) or not isinstance(value, numbers.Real):
+            self._refuse(value, owner, TypeError)
+        v = float(value)
+        if not math.isfinite(v):
+            self._refuse(value, owner)
+        return v
+
+    def _int(self, value, owner):
+        if isinstance(value, str) or _isBool(value) or not isinstance(value, numbers.Real):
+            self._refuse(value, owner, TypeError)
+        if isinstance(value, numbers.Integral):
+            return int(value)
+        v = float(value)
+        if not (math.isfinite(v) and v.is_integer()):
+            self._refuse(value, owner)
+        return int(v)
+
+    def _bool(self, value, owner):
+        if not _isBool(value):
+            self._refuse(value, owner, TypeError)
+        return bool(value)
+
+    def _str(self, value, owner):
+        if not isinstance(value, str):
+            self._refuse(value, owner, TypeError)
+        return str(value)
+
+    def _vector(self, value, owner):
+        if isinstance(value, str):
+            self._refuse(value, owner, TypeError)
+        try:
+            items = list(value)
+        except TypeError:
+            self._refuse(value, owner, TypeError)
+        if len(items) not in (2, 3):
+            self._refuse(value, owner)
+        if any(isinstance(c, str) or _isBool(c) or not isinstance(c, numbers.Real) for c in items):
+            self._refuse(value, owner, TypeError)
+        if not all(math.isfinite(c) for c in items):
+            self._refuse(value, owner)
+        return tuple(float(c) for c in items) + (0.0,) * (3 - len(items))
+
+    def _box(self, value, owner):
+        try:
+            lo, hi = value
+        except (TypeError, ValueError):
+            self._refuse(value, owner, TypeError)
+        return self._whole(value, owner, lambda: (self._vector(lo, owner), self._vector(hi, owner)))
+
+    def _points(self, value, owner):
+        if isinstance(value, str):
+            self._refuse(value, owner, TypeError)
+        try:
+            items = list(value)
+        except TypeError:
+            self._refuse(value, owner, TypeError)
+        return self._whole(value, owner, lambda: [self._vector(p, owner) for p in items])
+
+    def _whole(self, value, owner, convert):
+        """convert(), refused in the name of the whole value (not of the one vector that failed)."""
+        try:
+            return convert()
+        except (TypeError, ValueError) as err:
+            self._refuse(value, owner, type(err))
+
+    def _object(self, value, owner):
+        return value
+
+    # --- documentation -----------------------------------------------------------------------
+    def defaultText(self):
+        return "required" if self.required else repr(self.default)
 
     def line(self):
         unit = f" [{self.unit}]" if self.unit else ""
-        return f"    {self.name} = {self.default!r}{unit}\n        {self.doc}"
+        return f"{self.name} = {self.defaultText()}{unit}; allowed: {self.allowed()}\n    {self.doc}"
+
+
+def _isBool(value):
+    return isinstance(value, (bool, np.bool_))
+
+
+def _documented(doc, params):
+    """A docstring followed by the parameter table."""
+    return (inspect.cleandoc(doc or "") + "\n\nParameters (name = default [unit]; allowed):\n"
+            + "\n".join(p.line() for p in params) + "\n")
+
+
+def _signature(params, first=()):
+    P = inspect.Parameter
+    return inspect.Signature(list(first) + [
+        P(p.name, P.KEYWORD_ONLY if not first else P.POSITIONAL_OR_KEYWORD,
+          default=P.empty if p.required else p.default) for p in params])
 
 
 def declare(cls):
-    """Appends the parameter table to the class docstring."""
-    table = "\n".join(p.line() for p in cls.params)
-    cls.__doc__ = (cls.__doc__ or "").rstrip() + "\n\n    Parameters (name = default [unit]):\n" + table + "\n"
+    """Builds the class docstring (the text before the table is kept as ``cls.description`` for
+    the reference pages) and the signature help() shows from ``cls.params``."""
+    cls.description = inspect.cleandoc(cls.__doc__ or "")
+    cls.__doc__ = _documented(cls.__doc__, cls.params)
+    cls.__signature__ = _signature(cls.params)
     return cls
 
 
-def apply(obj, params, kwargs, owner):
-    """Sets every declared parameter from kwargs or its default; unknown names raise TypeError."""
+def values(params, kwargs, owner):
+    """Every declared parameter from kwargs or its default, validated and converted; unknown
+    names raise TypeError, a missing required one TypeError, a bad value ValueError/TypeError."""
     names = {p.name for p in params}
     unknown = [k for k in kwargs if k not in names]
     if unknown:
-        raise TypeError(f"{owner}: unknown parameter(s) {', '.join(unknown)}; "
+        raise TypeError(f"EigenMPM: unknown parameter(s) {', '.join(unknown)} ({owner}); "
                         f"known: {', '.join(sorted(names))}")
+    out = {}
     for p in params:
-        setattr(obj, p.name, kwargs.get(p.name, p.default))
+        if p.name not in kwargs:
+            if p.required:
+                raise TypeError(f"EigenMPM: {p.name} is required ({owner}): {p.doc}; "
+                                f"allowed: {p.allowed()}" + (f" [{p.unit}]" if p.unit else ""))
+            out[p.name] = p.default
+        else:
+            out[p.name] = p.validate(kwargs[p.name], owner)
+    return out
+
+
+def apply(obj, params, kwargs, owner):
+    """Sets every declared parameter on obj from kwargs or its default (see :func:`values`)."""
+    for name, v in values(params, kwargs, owner).items():
+        setattr(obj, name, v)
+
+
+def takes(*params):
+    """Declares the arguments of a method: its signature (in the order given, so required ones
+    first), the validation and conversion of every argument before the body runs, and the
+    parameter table in its docstring. The method is written without defaults."""
+    def wrap(method):
+        owner = method.__qualname__
+
+        @functools.wraps(method)
+        def call(self, *args, **kwargs):
+            if len(args) > len(params):
+                raise TypeError(f"EigenMPM: {owner} takes {len(params)} arguments, {len(args)} given")
+            given = dict(zip([p.name for p in params], args))
+            twice = [k for k in kwargs if k in given]
+            if twice:
+                raise TypeError(f"EigenMPM: {owner} got {', '.join(twice)} twice")
+            given.update(kwargs)
+            return method(self, **values(params, given, owner))
+
+        P = inspect.Parameter
+        call.__signature__ = _signature(params, [P("self", P.POSITIONAL_OR_KEYWORD)])
+        call.params = params
+        call.description = inspect.cleandoc(method.__doc__ or "")
+        call.__doc__ = _documented(method.__doc__, params)
+        return call
+    return wrap
 
 
 def vec3(v, what):
-    """A 3-tuple of floats from YADE's Vector3, a tuple, a list or a numpy array (2 or 3 long)."""
+    """A 3-tuple of floats from YADE's Vector3, a tuple, a list or a numpy array (2 or 3 long),
+    for values computed while running (e.g. velocity(t)); parameters use Param(kind='vector')."""
     try:
         items = [float(c) for c in v]
     except TypeError:

@@ -6,16 +6,20 @@ import time
 import numpy as np
 from yade import O, PyRunner
 
-from .engines import _register, findEngine
+from .engines import ENGINE, _register, findEngine
 from .params import Param, apply, declare
 
 
-def _periodic(engine, iterPeriod, virtPeriod, realPeriod=0):
-    if not (iterPeriod or virtPeriod or realPeriod):
-        raise ValueError("EigenMPM: give iterPeriod, virtPeriod or realPeriod (> 0)")
-    engine.iterPeriod = int(iterPeriod or 0)
-    engine.virtPeriod = float(virtPeriod or 0)
-    engine.realPeriod = float(realPeriod or 0)
+# The periods of a recorder; one of them must be > 0 (checked by _requirePeriod).
+_ITER = Param("iterPeriod", 0, "iterations", "record every iterPeriod iterations (0: not by iterations)",
+              bounds="[0, inf)")
+_VIRT = Param("virtPeriod", 0.0, "s", "record every virtPeriod of simulated time (0: not by time)",
+              bounds="[0, inf)")
+
+
+def _requirePeriod(engine, owner):
+    if not (engine.iterPeriod or engine.virtPeriod):
+        raise ValueError(f"EigenMPM: give iterPeriod or virtPeriod (> 0) ({owner})")
 
 
 @declare
@@ -23,26 +27,28 @@ class VTKRecorder(PyRunner):
     """Writes the material points of an MpmEngine as VTK XML poly data (``.vtp``, one file per
     record) plus a ParaView collection ``<fileName>.pvd`` with the time of each file. Point data:
     velocity, displacement, stress and strain (3x3), psiPlus, H (history), damage, material.
-    Periodic like YADE's VTKRecorder (iterPeriod or virtPeriod). When the solver stops on an
-    error, the state at that moment is written as ``<fileName>failure.vtp``.
+    Periodic like YADE's VTKRecorder (iterPeriod or virtPeriod, one of them > 0). When the
+    solver stops on an error, the state at that moment is written as ``<fileName>failure.vtp``.
+
+    Example::
+
+        O.engines = [mpm, em.VTKRecorder(fileName='out/vtk/plate-', iterPeriod=500)]
     """
 
     params = (
-        Param("engine", None, "", "the MpmEngine or its label (default: the only one)"),
-        Param("fileName", "mpm-", "", "path prefix of the files; directories are created"),
-        Param("iterPeriod", 0, "iterations", "record every iterPeriod iterations"),
-        Param("virtPeriod", 0.0, "s", "record every virtPeriod of simulated time"),
+        Param("label", "mpmVtk", "", "YADE label of the engine"),
+        ENGINE,
+        Param("fileName", "mpm-", "", "path prefix of the files; directories are created",
+              accepts="non-empty string", check=lambda f: f != ""),
+        _ITER,
+        _VIRT,
     )
 
-    def __init__(self, label="mpmVtk", **kw):
+    def __init__(self, **kw):
         PyRunner.__init__(self)
-        apply(self, self.params[:2], {k: v for k, v in kw.items() if k in ("engine", "fileName")}, "VTKRecorder")
-        rest = {k: v for k, v in kw.items() if k not in ("engine", "fileName")}
-        unknown = set(rest) - {"iterPeriod", "virtPeriod"}
-        if unknown:
-            raise TypeError(f"VTKRecorder: unknown parameter(s) {', '.join(sorted(unknown))}")
-        _periodic(self, rest.get("iterPeriod"), rest.get("virtPeriod"))
-        self.label, self.initRun = label, True
+        apply(self, self.params, kw, "VTKRecorder")
+        _requirePeriod(self, "VTKRecorder")
+        self.initRun = True
         self.command = _register(self)
         self.files = []
         self._attached = None
@@ -118,17 +124,29 @@ class VTKRecorder(PyRunner):
 @declare
 class PlotRecorder(PyRunner):
     """Adds the MpmEngine's diagnostics to ``yade.plot`` every period: ``t`` (s), ``iter``, and
-    ``<label>_Ek``, ``<label>_Ee`` (J) and ``<label>_<bc>_Rx`` ... (N) from MpmEngine.plotData."""
+    ``<label>_Ek``, ``<label>_Ee`` (J) and ``<label>_<bc>_Rx`` ... (N) from MpmEngine.plotData.
+    The period is iterPeriod or virtPeriod (one of them > 0).
+
+    Example::
+
+        from yade import plot
+        O.engines = [mpm, em.PlotRecorder(iterPeriod=100)]
+        O.run(10000, True)
+        plot.saveDataTxt('out/energies.txt')
+    """
 
     params = (
-        Param("engine", None, "", "the MpmEngine or its label (default: the only one)"),
+        Param("label", "mpmPlot", "", "YADE label of the engine"),
+        ENGINE,
+        _ITER,
+        _VIRT,
     )
 
-    def __init__(self, label="mpmPlot", engine=None, iterPeriod=0, virtPeriod=0.0):
+    def __init__(self, **kw):
         PyRunner.__init__(self)
-        self.engine = engine
-        _periodic(self, iterPeriod, virtPeriod)
-        self.label, self.initRun = label, True
+        apply(self, self.params, kw, "PlotRecorder")
+        _requirePeriod(self, "PlotRecorder")
+        self.initRun = True
         self.command = _register(self)
 
     def _action(self):
@@ -141,23 +159,30 @@ class PlotRecorder(PyRunner):
 @declare
 class Progress(PyRunner):
     """Prints progress of a long run: iteration, simulated time, percentage, elapsed wall time and
-    ETA, every realPeriod seconds of wall time. Give the end as endIter or endTime."""
+    ETA, every realPeriod seconds of wall time. Give the end as endIter or endTime.
+
+    Example::
+
+        O.engines = [mpm, em.Progress(endIter=20000, realPeriod=30)]
+        O.run(20000, True)
+    """
 
     params = (
-        Param("endIter", None, "", "last iteration of the run"),
-        Param("endTime", None, "s", "simulated time at the end of the run"),
-        Param("realPeriod", 10.0, "s", "wall-clock seconds between reports"),
+        Param("label", "mpmProgress", "", "YADE label of the engine"),
+        Param("endIter", None, "", "last iteration of the run", kind="int", bounds="[1, inf)"),
+        Param("endTime", None, "s", "simulated time at the end of the run", kind="float", bounds="(0, inf)"),
+        Param("realPeriod", 10.0, "s", "wall-clock seconds between reports", bounds="(0, inf)"),
+        Param("stream", None, "", "where the reports go; default sys.stdout", kind="object",
+              accepts="a file-like object (with write)", check=lambda f: hasattr(f, "write")),
     )
 
-    def __init__(self, label="mpmProgress", stream=None, **kw):
+    def __init__(self, **kw):
         PyRunner.__init__(self)
         apply(self, self.params, kw, "Progress")
         if self.endIter is None and self.endTime is None:
             raise ValueError("EigenMPM: Progress needs endIter or endTime")
-        _periodic(self, 0, 0, self.realPeriod)
-        self.label, self.initRun = label, True
+        self.initRun = True
         self.command = _register(self)
-        self.stream = stream
         self._start = None
 
     def fraction(self):
