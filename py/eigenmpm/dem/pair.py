@@ -5,8 +5,9 @@ import time
 
 import numpy as np
 
-from .calibration import _model, calibrate
+from ..ramp import rampTimeTo
 from . import reports
+from .calibration import _model, calibrate
 from .specimen import DemSpecimen, layersFor
 
 
@@ -187,9 +188,7 @@ def runToDisplacement(pair, out, load, displacement, velocity, rampTime=0.0, dtF
     from ..engines import callEvery
     from ..recorders import Progress
     dt = pair.setTimeStep(dtFraction)
-    u, v, t0 = displacement, velocity, rampTime
-    endTime = u / v + 0.5 * t0 if u / v > 0.5 * t0 else (2 * u * t0 / v) ** 0.5
-    steps = int(round(endTime / dt))
+    steps = int(round(rampTimeTo(displacement, velocity, rampTime) / dt))
     O.engines = pair.engines() + [callEvery(pair.record, iterPeriod=max(1, steps // records), label="record"),
                                   Progress(endIter=steps, realPeriod=30)]
     dtDem, dtMpm = pair.criticalTimeSteps()
@@ -198,9 +197,9 @@ def runToDisplacement(pair, out, load, displacement, velocity, rampTime=0.0, dtF
     start = time.time()
     stopped = runSteps(steps)
     wall = time.time() - start
-    info = dict(extra or {}, stopped_early=stopped, imposed_displacement_m=u)
+    info = dict(extra or {}, stopped_early=stopped, imposed_displacement_m=displacement)
     summary = reports.report(pair, out, load, component=component, title=title, wall=wall, sign=sign, band=band,
-                     extra=info, cpu=None if cpu0 is None else time.process_time() - cpu0)
+                             extra=info, cpu=None if cpu0 is None else time.process_time() - cpu0)
     import json
     keys = ("mpm_peak_load_N", "dem_peak_load_N", "mpm_displacement_at_peak_m", "dem_displacement_at_peak_m",
             "mpm_dissipated_energy_J", "dem_dissipated_energy_J", "mpm_eroded", "dem_broken_bonds",

@@ -13,6 +13,8 @@ import math
 
 import numpy as np
 
+from ..ramp import rampFactor
+
 HCP_FRACTION = math.pi / (3.0 * math.sqrt(2.0))  # solid fraction of hcp (and fcc)
 HCP_CONTACTS = 12
 LAYER = 2.0 * math.sqrt(6.0) / 3.0  # hcp layer spacing / r
@@ -98,10 +100,11 @@ class DemBC:
         self._mask = np.array([c in components for c in "xyz"], float)
 
     def value(self, t):
+        """Prescribed velocity at time t: velocity(t), or the vector times the ramp of paper Eq 34
+        (the same as MpmEngine.velocityBC's rampTime)."""
         if callable(self.velocity):
             return np.asarray(list(self.velocity(t)), float)
-        f = 1.0 if self.rampTime <= 0 else min(max(t / self.rampTime, 0.0), 1.0)
-        return f * np.asarray(list(self.velocity), float)
+        return rampFactor(t, self.rampTime) * np.asarray(list(self.velocity), float)
 
     def apply(self, t):
         from yade import O, Vector3
