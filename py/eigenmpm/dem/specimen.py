@@ -13,16 +13,12 @@ import math
 
 import numpy as np
 
+from .. import builders
 from ..ramp import rampFactor
 
 HCP_FRACTION = math.pi / (3.0 * math.sqrt(2.0))  # solid fraction of hcp (and fcc)
 HCP_CONTACTS = 12
 LAYER = 2.0 * math.sqrt(6.0) / 3.0  # hcp layer spacing / r
-
-
-def _zplane(predicate):
-    lo, hi = predicate.aabb()
-    return 0.5 * (lo[2] + hi[2]) if math.isfinite(lo[2]) and math.isfinite(hi[2]) else 0.0
 
 
 def hcpCenters(predicate, radius, layers):
@@ -34,7 +30,7 @@ def hcpCenters(predicate, radius, layers):
     lo, hi = predicate.aabb()
     if not all(math.isfinite(lo[i]) and math.isfinite(hi[i]) for i in (0, 1)):
         raise ValueError("EigenMPM: the predicate's bounding box is unbounded in x or y; intersect it with a box")
-    zp = _zplane(predicate)
+    zp = builders.zPlane(predicate)
     r = radius
     dy = math.sqrt(3.0) * r
     dz = LAYER * r
@@ -173,10 +169,10 @@ class DemSpecimen:
 
     def select(self, region, pad=0.0):
         """Ids of the spheres whose centre, moved back by the offset, lies in `region` (a yade.pack
-        predicate in specimen coordinates, evaluated in its own middle z-plane) with ``pad``."""
+        predicate in specimen coordinates, evaluated in its own middle z-plane) with ``pad``: the
+        selection of MpmEngine.pointsIn in 2D."""
         x, ids = self.centres()
-        zp = _zplane(region)
-        return [i for i, p in zip(ids, x) if region((p[0] - self.offset[0], p[1] - self.offset[1], zp), pad)]
+        return [ids[i] for i in builders.select(x - self.offset, region, pad, 2)]
 
     def velocityBC(self, label, ids, components, velocity, rampTime=0.0):
         if len(ids) == 0:
