@@ -4,7 +4,6 @@ SHELL := /bin/bash
 PYTHON := /usr/bin/python3.11
 BUILD := build
 JOBS ?= $(shell nproc)
-YADE_PY := /usr/lib/x86_64-linux-gnu/yade-double/py
 DEBS := yade cmake make g++ libeigen3-dev libboost-python1.74-dev libboost-numpy1.74-dev \
         python3-dev python3.11-dev libgtest-dev python3-pytest python3-numpy python3-matplotlib \
         python3-vtk9 python3-scipy
@@ -38,7 +37,7 @@ bench: build
 # Re-record the regression references examples/reference/NAME.json from runs on this machine
 # (values only; the tolerances stay): make reference NAMES="crack_branching lshaped_panel"
 reference: build
-	PYTHONPATH=$(PYTHONPATH):$(YADE_PY) $(PYTHON) -m eigenmpm.regression record $(NAMES)
+	$(PYTHON) tools/regression.py record $(NAMES)
 
 # Regenerate the parameter reference doc/reference/*.md from the declarations in py/eigenmpm
 # (tests/python/test_param_reference.py fails while a committed page is stale)

@@ -9,6 +9,13 @@ def _aabb(predicate):
     return np.array([lo[0], lo[1], lo[2]], float), np.array([hi[0], hi[1], hi[2]], float)
 
 
+def zPlane(predicate):
+    """The plane z in which a 2D scene evaluates a predicate: the middle of its z-range (0 where
+    that is unbounded), so that a box given with z from 0 to 0 or from -1 to 1 both count."""
+    lo, hi = _aabb(predicate)
+    return 0.5 * (lo[2] + hi[2]) if np.isfinite(lo[2]) and np.isfinite(hi[2]) else 0.0
+
+
 def latticePoints(predicate, h, ppc, dim):
     """Points of the lattice x = (i + 1/2) h/ppc (aligned with the grid nodes at multiples of h)
     inside the predicate's bounding box for which ``predicate(x, 0)`` holds, x fastest."""
@@ -25,8 +32,7 @@ def latticePoints(predicate, h, ppc, dim):
         last = math.floor(hi[d] / dx - 0.5 + 1e-9)
         axes.append((np.arange(first, last + 1) + 0.5) * dx)
     if dim == 2:
-        z = 0.5 * (lo[2] + hi[2]) if np.isfinite(lo[2]) and np.isfinite(hi[2]) else 0.0
-        axes.append(np.array([z]))
+        axes.append(np.array([zPlane(predicate)]))
     grid = np.meshgrid(*axes, indexing="ij")
     pts = np.stack([g.ravel(order="F") for g in grid], axis=1)
     keep = np.fromiter((bool(predicate(tuple(p), 0.0)) for p in pts), dtype=bool, count=len(pts))
@@ -43,9 +49,8 @@ def select(positions, predicate, pad, dim):
     if hasattr(predicate, "aabb"):
         lo, hi = _aabb(predicate)
         if dim == 2:
-            z = 0.5 * (lo[2] + hi[2]) if np.isfinite(lo[2]) and np.isfinite(hi[2]) else 0.0
             pos = pos.copy()
-            pos[:, 2] = z
+            pos[:, 2] = zPlane(predicate)
         tol = abs(pad) + 1e-12
         near = np.all((pos[:, :dim] >= lo[:dim] - tol) & (pos[:, :dim] <= hi[:dim] + tol), axis=1)
         cand = np.nonzero(near)[0]

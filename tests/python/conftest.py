@@ -1,9 +1,11 @@
-"""pytest runs in YADE's Python (/usr/bin/python3.11): make yade and the built package importable."""
+"""pytest runs in YADE's Python (/usr/bin/python3.11): make yade, the built package and the
+developer tools (tools/, not installed) importable."""
 import os
 import sys
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-for path in (os.path.join(ROOT, "build", "python"), "/usr/lib/x86_64-linux-gnu/yade-double/py"):
+for path in (os.path.join(ROOT, "build", "python"), "/usr/lib/x86_64-linux-gnu/yade-double/py",
+             os.path.join(ROOT, "tools")):
     if path not in sys.path:
         sys.path.insert(0, path)
 

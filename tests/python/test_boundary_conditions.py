@@ -5,6 +5,7 @@ import pytest
 from yade import O, pack
 
 import eigenmpm as em
+from eigenmpm.ramp import rampFactor, rampTimeTo
 
 
 def concrete():
@@ -87,9 +88,21 @@ def test_ramp_velocity_region_moves_covered_points_exactly():
     O.run(n, True)
     moved = mpm.solver.positions()[:, 0] - x0[:, 0]
     first = np.isclose(x0[:, 0], h / 4)
-    expected = sum(v0 * min((k + 0.5) * O.dt / t0, 1.0) for k in range(n)) * O.dt
+    # the ramp of Eq 34 as Python code (DEM conditions, run planning) has it: the solver's
+    expected = sum(v0 * rampFactor((k + 0.5) * O.dt, t0) for k in range(n)) * O.dt
     assert moved[first] == pytest.approx(expected, rel=1e-9)
     assert bc.reaction[0] > 0  # the piston pushes the bar
+
+
+@pytest.mark.parametrize("u, t0", [(2e-6, 1e-3), (5e-4, 1e-3), (5e-4, 0.0)])
+def test_ramp_time_to_a_displacement_inverts_the_ramped_motion(u, t0):
+    # integrate v rampFactor(t) up to rampTimeTo(u): within the ramp and after it
+    v, n = 0.02, 200000
+    T = rampTimeTo(u, v, t0)
+    dt = T / n
+    moved = sum(v * rampFactor((k + 0.5) * dt, t0) for k in range(n)) * dt
+    assert moved == pytest.approx(u, rel=1e-6)
+    assert rampFactor(-1.0, t0) == (0.0 if t0 > 0 else 1.0) and rampFactor(2 * t0 + 1, t0) == 1.0
 
 
 def test_condition_by_points_follows_the_points_across_cells():

@@ -1,4 +1,4 @@
-"""examples/collect.py lays out sweep summaries like the paper's tables."""
+"""tools/collect.py lays out sweep summaries like the paper's tables."""
 import json
 import os
 import subprocess
@@ -15,7 +15,7 @@ def test_collect_lays_out_rows_and_columns(tmp_path):
             (d / "summary.json").write_text(json.dumps({
                 "parameters": {"alpha": alpha, "kappaOverH": kappa},
                 "peak_load_kN": 10 * alpha + kappa, "displacement_at_peak_mm": alpha / 10}))
-    res = subprocess.run([sys.executable, os.path.join(ROOT, "examples", "collect.py"), str(tmp_path),
+    res = subprocess.run([sys.executable, os.path.join(ROOT, "tools", "collect.py"), str(tmp_path),
                           "--rows", "alpha", "--cols", "kappaOverH", "--value", "peak_load_kN",
                           "--csv", str(tmp_path / "t.csv")], capture_output=True, text=True)
     assert res.returncode == 0, res.stderr

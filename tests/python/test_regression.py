@@ -6,7 +6,7 @@ import os
 
 import pytest
 
-from eigenmpm import regression
+import regression  # tools/regression.py (conftest puts tools/ on sys.path)
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 REFERENCES = sorted(glob.glob(os.path.join(ROOT, "examples", "reference", "*.json")))

@@ -1,4 +1,4 @@
-"""The speed/accuracy study tool (eigenmpm.study, examples/study.py): a tiny real sweep, the Pareto
+"""The speed/accuracy study tool (tools/study.py): a tiny real sweep, the Pareto
 front, the error measures on synthetic runs, and the messages for bad knobs."""
 import csv
 import json
@@ -8,7 +8,7 @@ import subprocess
 
 import pytest
 
-from eigenmpm import study
+import study  # tools/study.py (conftest puts tools/ on sys.path)
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
@@ -16,7 +16,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 def test_tiny_bar_sweep_writes_table_and_plot_and_error_falls_with_h(tmp_path):
     env = dict(os.environ, PYTHONPATH=os.path.join(ROOT, "build", "python"))
     out = tmp_path / "bar"
-    res = subprocess.run(["yade", "-n", "-x", os.path.join(ROOT, "examples", "study.py"), "bar", "h=250,125",
+    res = subprocess.run(["yade", "-n", "-x", os.path.join(ROOT, "tools", "study.py"), "bar", "h=250,125",
                           "periods=1", "--out", str(out)], cwd=ROOT, env=env, capture_output=True, text=True,
                          timeout=120, stdin=subprocess.DEVNULL)
     assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-2000:]

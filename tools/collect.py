@@ -2,7 +2,7 @@
 layout of the paper's Tables 1 and 2: one row per value of --rows, one column per value of
 --cols (optional), each cell the --value quantities of that run.
 
-    /usr/bin/python3.11 examples/collect.py out/lshaped_panel --rows alpha --cols kappaOverH \
+    /usr/bin/python3.11 tools/collect.py out/lshaped_panel --rows alpha --cols kappaOverH \
         [--value displacement_at_peak_mm,peak_load_kN] [--csv table.csv]
 
 The parameters of a run are read from its summary's "parameters" (every example writes them).

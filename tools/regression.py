@@ -8,9 +8,13 @@ A reference (``examples/reference/<name>.json``) reads::
                     "tips_at_end": {"value": 2, "abs": 0}}}
 
 ``rel`` is a relative and ``abs`` an absolute tolerance (either or both; a quantity passes when
-it is within either). Record or refresh a reference with::
+it is within either). tests/python/test_regression.py runs every reference. Record or refresh a
+reference with::
 
-    make reference NAMES="crack_branching ..."     (from the repository root)
+    make reference NAMES="crack_branching ..."
+    /usr/bin/python3.11 tools/regression.py record crack_branching ...     (the same)
+
+Scripts and references are found in the repository this file lies in (tools/..).
 """
 import json
 import os
@@ -18,8 +22,10 @@ import subprocess
 import sys
 import tempfile
 
+ROOT = os.path.dirname(os.path.dirname(os.path.realpath(__file__)))
 
-def run(reference, root, timeout=600):
+
+def run(reference, root=ROOT, timeout=600):
     """Runs the reference's script into a temporary directory; returns its summary dict."""
     with tempfile.TemporaryDirectory() as out:
         env = dict(os.environ)
@@ -54,7 +60,7 @@ def compare(reference, summary):
     return failures
 
 
-def record(name, root):
+def record(name, root=ROOT):
     """Runs the reference `name` and rewrites its values from the run (tolerances kept)."""
     path = os.path.join(root, "examples", "reference", name + ".json")
     with open(path) as f:
@@ -70,8 +76,7 @@ def record(name, root):
 
 if __name__ == "__main__":
     if len(sys.argv) >= 3 and sys.argv[1] == "record":
-        here = os.getcwd()
         for n in sys.argv[2:]:
-            print(json.dumps(record(n, here), indent=2))
+            print(json.dumps(record(n), indent=2))
     else:
-        raise SystemExit("usage: make reference NAMES=\"NAME ...\" (from the repository root)")
+        raise SystemExit("usage: make reference NAMES=\"NAME ...\", or tools/regression.py record NAME ...")

@@ -3,11 +3,15 @@ own YADE process, with its cost, its error against a reference, a table and a Pa
 
 Run from the repository root (the study needs no YADE itself, only its runs do)::
 
-    yade -n -x examples/study.py SCENE knob=v1,v2,... [knob=v ...] [--out DIR]
+    yade -n -x tools/study.py SCENE knob=v1,v2,... [knob=v ...] [--out DIR]
         [--reference finest|closed-form|RUN_DIR] [--cost cpu|loop|psteps] [--quick] [--rerun]
         [--timeout S] [--dry-run]
-    yade -n -x examples/study.py --combine STUDY_DIR [STUDY_DIR ...] --out DIR [--cost ...]
-    /usr/bin/python3.11 py/eigenmpm/study.py ...       # the same
+    yade -n -x tools/study.py --combine STUDY_DIR [STUDY_DIR ...] --out DIR [--cost ...]
+    /usr/bin/python3.11 tools/study.py ...       # the same
+
+The example scripts are found in the repository this file lies in (tools/..); a relative --out
+is taken from the working directory by the study and from the repository root by its runs,
+hence the repository root as working directory.
 
 SCENE: ``vibrating_bar`` (or ``bar``), ``lshaped_panel`` (``lpanel``), ``crack_branching``
 (``branching``). Knobs: the generic ``h`` (cell size, mm), ``ppc``, ``shape`` (linear or
@@ -61,7 +65,14 @@ import subprocess
 import sys
 import time
 
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.realpath(__file__))))
+
+def _root():
+    """The repository this file lies in (tools/..). Under ``yade -x`` ``__file__`` names YADE's
+    launcher, so the path is taken from this code's own file name."""
+    return os.path.dirname(os.path.dirname(os.path.realpath(_root.__code__.co_filename)))
+
+
+ROOT = _root()
 SHAPES = ("linear", "uGIMP")
 GENERIC = ("h", "ppc", "shape", "kappaOverH", "alpha", "dtFraction")
 TARGETS = (0.01, 0.05, 0.2)

@@ -1,0 +1,209 @@
+"""One specimen modelled twice in one YADE scene: a plane-stress EigenMPM body and a DEM slab,
+with the same conditions, one O.dt and records of both; and the run of the comparison examples."""
+import math
+import time
+
+import numpy as np
+
+from ..ramp import rampTimeTo
+from . import reports
+from .calibration import _model, calibrate
+from .specimen import DemSpecimen, layersFor
+
+
+class _Pair:
+    """A pair of conditions, MPM and DEM, under one label."""
+
+    def __init__(self, label, mpm, dem, mpmIds, mpmEngine):
+        self.label, self.mpm, self.dem, self._ids, self._engine = label, mpm, dem, mpmIds, mpmEngine
+        self._x0 = mpmEngine.solver.positions()[mpmIds].copy() if len(mpmIds) else None
+
+    def mpmDisplacement(self):
+        if self._x0 is None:
+            return np.zeros(3)
+        return np.mean(self._engine.solver.positions()[self._ids] - self._x0, axis=0)
+
+
+class DemMpmPair:
+    """The same specimen (a yade.pack predicate, 2D in x-y) as a plane-stress EigenMPM body of
+    thickness t (MpmEngine.fill + EigenErosion) and a DEM slab (see eigenmpm.dem.specimen), the DEM
+    placed `offset` away (default: beside the MPM specimen in +x, a gap of a quarter of its
+    width). Give the calibration (a dict of :func:`calibrate`) or let it be made by the rule.
+    Boundary conditions go on both through :meth:`velocityBC` / :meth:`fix`; :meth:`engines`
+    returns the engines of both; :meth:`setTimeStep` sets one O.dt below both critical steps."""
+
+    def __init__(self, predicate, E, nu, rho, Gc, ft, h, radius, thickness=1.0, model="cpm",
+                 calibration=None, layers=None, offset=None, ppc=2, alpha=1.5, kappaOverH=1.1,
+                 damping=0.0, erosionPeriod=100, label="mpm"):
+        from yade import O
+        from ..engines import MpmEngine
+        from ..fracture import EigenErosion
+        from ..materials import ElasticMaterial
+        self.model = _model(model)
+        self.constants = dict(E=E, nu=nu, rho=rho, Gc=Gc, ft=ft, thickness=thickness, h=h, radius=radius)
+        self.calibration = calibration or calibrate(self.model, E, nu, ft, Gc, radius)
+        if self.calibration["model"] != self.model:
+            raise ValueError("EigenMPM: the calibration is for another DEM model")
+        self.mpm = MpmEngine(dim=2, h=h, ppc=ppc, thickness=thickness, label=label)
+        self.mpm.fill(predicate, ElasticMaterial(E=E, nu=nu, rho=rho, planeStress=True))
+        self.erosion = EigenErosion(engine=self.mpm, Gc=Gc, alpha=alpha, kappaOverH=kappaOverH,
+                                    iterPeriod=erosionPeriod)
+        lo, hi = predicate.aabb()
+        if offset is None:
+            w = hi[0] - lo[0]
+            offset = (w + max(0.25 * w, 4 * radius + 2 * h), 0.0, 0.0)
+        self.layers = int(layers) if layers else layersFor(thickness, radius)
+        self.dem = DemSpecimen(predicate, self.calibration, rho, radius, self.layers, thickness, offset,
+                               damping=damping)
+        self.pairs = {}
+        self.curves = {}
+        self._t0 = None
+        O.timingEnabled = True
+
+    # --- specimen and conditions ------------------------------------------------------------
+    def notch(self, vertices, width=None):
+        """A notch along the polyline `vertices` (specimen coordinates): in the MPM a phantom-node
+        crack (MpmEngine.crack), in the DEM the spheres whose centre lies within width/2 (default
+        1.01 r, which cuts the bonds across it) of the polyline, measured normal to a segment
+        (no round caps at the ends), are removed: a notch 2 to 4 r wide that ends within r of
+        the last vertex."""
+        self.mpm.crack(vertices)
+        half = 0.5 * width if width else 1.01 * self.dem.radius
+        x, ids = self.dem.centres()
+        v = np.array([list(p) for p in vertices], float)[:, :2] + self.dem.offset[:2]
+        gone = [i for i, p in zip(ids, x) if _distanceToPolyline(p[:2], v, caps=False) < half]
+        self.dem.remove(gone)
+        return gone
+
+    def velocityBC(self, label, points=None, region=None, demRegion=None, components="xy",
+                   velocity=(0, 0, 0), rampTime=0.0):
+        """A velocity condition on both models: on the MPM as ``MpmEngine.velocityBC(points= or
+        region=)``, on the DEM on the spheres whose centre lies in demRegion (specimen coordinates;
+        default: `points`, enlarged by the radius r). Returns the pair (.mpm, .dem)."""
+        if points is not None and not callable(points) and not hasattr(points, "aabb"):
+            mpmIds = np.asarray(points, int)
+        elif points is not None:
+            mpmIds = self.mpm.pointsIn(points)
+        else:
+            mpmIds = np.zeros(0, int)
+        m = self.mpm.velocityBC(region=region, points=None if points is None else mpmIds,
+                                components=components, velocity=velocity, rampTime=rampTime, label=label)
+        if demRegion is not None:
+            ids = self.dem.select(demRegion)
+        elif points is not None and hasattr(points, "aabb"):
+            ids = self.dem.select(points, -self.dem.radius)
+        elif region is not None and hasattr(region, "aabb"):
+            ids = self.dem.select(region, -self.dem.radius)
+        else:
+            raise ValueError(f"EigenMPM: give demRegion for condition {label!r}")
+        d = self.dem.velocityBC(label, ids, components, velocity, rampTime)
+        pair = _Pair(label, m, d, mpmIds, self.mpm)
+        self.pairs[label] = pair
+        self.curves[label] = []
+        return pair
+
+    def fix(self, label, points=None, region=None, demRegion=None, components="xy"):
+        return self.velocityBC(label, points, region, demRegion, components, (0, 0, 0))
+
+    # --- engines and time step --------------------------------------------------------------
+    def engines(self):
+        """DEM engines (force reset, collider, interactions, control, integrator), then the MPM
+        solver and its EigenErosion engine."""
+        return self.dem.engines() + [self.mpm, self.erosion]
+
+    def criticalTimeSteps(self):
+        """(DEM, MPM) critical time steps, s: PWaveTimeStep() and MpmEngine.criticalTimeStep()."""
+        return self.dem.criticalTimeStep(), self.mpm.criticalTimeStep()
+
+    def setTimeStep(self, fraction=0.8):
+        """O.dt = fraction x the smaller critical step; returns it."""
+        from yade import O
+        if not 0 < fraction <= 1:
+            raise ValueError(f"EigenMPM: fraction = {fraction!r} is invalid; allowed: 0 < fraction <= 1")
+        O.dt = fraction * min(self.criticalTimeSteps())
+        return O.dt
+
+    # --- records ----------------------------------------------------------------------------
+    def record(self):
+        """Appends (t, MPM displacement, MPM reaction, DEM displacement, DEM reaction) of every
+        condition (vectors, m and N; DEM force scaled to the thickness) to self.curves[label]."""
+        from yade import O
+        if self._t0 is None:
+            self._t0 = time.time()
+        for label, p in self.pairs.items():
+            self.curves[label].append((O.time, p.mpmDisplacement(), np.asarray(list(p.mpm.reaction), float),
+                                       p.dem.displacement(), np.asarray(list(p.dem.reaction), float)))
+
+    def curve(self, label, component=1):
+        """Arrays (t, u_mpm, F_mpm, u_dem, F_dem) of one component of a condition's record."""
+        c = self.curves[label]
+        if not c:
+            return tuple(np.zeros(0) for _ in range(5))
+        t = np.array([r[0] for r in c])
+        return (t,) + tuple(np.array([r[k][component] for r in c]) for k in range(1, 5))
+
+    def wallTimes(self):
+        """Seconds spent in the engines of each model (YADE's engine timing, O.timingEnabled),
+        and per engine label under 'engine_wall_s'."""
+        dem = sum(e.execTime for e in self._demEngineObjects()) * 1e-9
+        mpm = (self.mpm.execTime + self.erosion.execTime) * 1e-9
+        from yade import O
+        each = {e.label or type(e).__name__: e.execTime * 1e-9 for e in O.engines}
+        return dict(dem_wall_s=dem, mpm_wall_s=mpm, engine_wall_s=each)
+
+    def _demEngineObjects(self):
+        from yade import O
+        mine = {f"{self.dem.tag}_{n}" for n in ("forces", "collider", "interactions", "control", "newton")}
+        return [e for e in O.engines if e.label in mine]
+
+    def summary(self, load=None, component=1, smooth=0.01):
+        """Scalars for summary.json (see :func:`eigenmpm.dem.reports.summary`)."""
+        return reports.summary(self, load, component, smooth)
+
+
+def _distanceToPolyline(p, v, caps=True):
+    """Distance from p to the polyline v; without caps only where p projects inside a segment
+    (elsewhere infinite)."""
+    best = math.inf
+    for a, b in zip(v[:-1], v[1:]):
+        ab = b - a
+        t = 0.0 if not ab.any() else float(np.dot(p - a, ab) / np.dot(ab, ab))
+        if not caps and not 0.0 <= t <= 1.0:
+            continue
+        t = min(1.0, max(0.0, t))
+        best = min(best, float(np.linalg.norm(p - (a + t * ab))))
+    return best
+
+
+def runToDisplacement(pair, out, load, displacement, velocity, rampTime=0.0, dtFraction=0.8, title="",
+                      extra=None, cpu0=None, sign=1.0, band=None, component=1, records=1000):
+    """Runs the pair until the load point has moved by `displacement` (m) under `velocity`
+    (m/s) reached over the ramp `rampTime` (s) (paper Eq 34), with O.dt = dtFraction x the smaller
+    critical step, recording both models about `records` times and reporting progress; a run the
+    solver stops with an error keeps what it computed (eigenmpm.cli.runSteps). Then report() and
+    a print of the main numbers: returns the summary, with `cpu_time_s` since `cpu0`
+    (time.process_time()) when given."""
+    from yade import O
+    from ..cli import runSteps
+    from ..engines import callEvery
+    from ..recorders import Progress
+    dt = pair.setTimeStep(dtFraction)
+    steps = int(round(rampTimeTo(displacement, velocity, rampTime) / dt))
+    O.engines = pair.engines() + [callEvery(pair.record, iterPeriod=max(1, steps // records), label="record"),
+                                  Progress(endIter=steps, realPeriod=30)]
+    dtDem, dtMpm = pair.criticalTimeSteps()
+    print(f"MPM {pair.mpm.solver.numPoints} points, DEM {len(pair.dem.ids)} spheres ({pair.layers} layers), "
+          f"dt {dt:.3g} s (critical DEM {dtDem:.3g}, MPM {dtMpm:.3g}), {steps} steps", flush=True)
+    start = time.time()
+    stopped = runSteps(steps)
+    wall = time.time() - start
+    info = dict(extra or {}, stopped_early=stopped, imposed_displacement_m=displacement)
+    summary = reports.report(pair, out, load, component=component, title=title, wall=wall, sign=sign, band=band,
+                             extra=info, cpu=None if cpu0 is None else time.process_time() - cpu0)
+    import json
+    keys = ("mpm_peak_load_N", "dem_peak_load_N", "mpm_displacement_at_peak_m", "dem_displacement_at_peak_m",
+            "mpm_dissipated_energy_J", "dem_dissipated_energy_J", "mpm_eroded", "dem_broken_bonds",
+            "mpm_wall_s", "dem_wall_s", "particles", "steps", "wall_time_s", "cpu_time_s")
+    print(json.dumps({k: summary.get(k) for k in keys}, indent=2, default=float))
+    print("outputs in", out)
+    return summary
