@@ -6,7 +6,7 @@ from .params import Param, apply, declare
 @declare
 class ElasticMaterial:
     """Isotropic linear elastic material with a tension/compression split of its strain energy:
-    the paper's spectral split (Eqs 2-7) by default, or the volumetric-deviatoric split, or none.
+    the paper's spectral split (Eqs 2-7) by default, or another registered law (``split``).
     In 2D it is plane strain unless ``planeStress`` is set.
 
     Example::
@@ -20,8 +20,8 @@ class ElasticMaterial:
         Param("rho", None, "kg/m3", "mass density", kind="float", bounds="(0, inf)", required=True),
         Param("planeStress", False, "", "2D only: plane stress instead of plane strain"),
         Param("split", "spectral", "", "tension/compression split of the strain energy (which part "
-                                       "drives fracture): 'spectral' (the paper's, Eqs 2-7), "
-                                       "'volumetric' (Amor et al. 2009) or 'none'; see doc/fracture.md",
+                                       "drives fracture), one of the laws registered in pkg/Laws.hpp; "
+                                       "'spectral' is the paper's (Eqs 2-7); see doc/fracture.md",
               choices=tuple(_eigenmpm.lawNames())),
     )
 
