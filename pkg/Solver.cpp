@@ -162,7 +162,9 @@ template <int D, class K> void Solver<D, K>::applyConditionsAfterVelocity(double
     for (auto& c : conditions_) c->afterNodalVelocity(s);
 }
 
-template <int D, class K> void Solver<D, K>::updateStress(int p, const St& st, double dt)
+// Forced inline (see Stencil.hpp): the per-point pieces must merge into the pass's loop; as
+// out-of-line calls they cost one call per point and keep the sums out of registers.
+template <int D, class K> EMP_ALWAYS_INLINE void Solver<D, K>::updateStress(int p, const St& st, double dt)
 {
     // Velocity gradient L = sum v_I grad N_I and strain increment (Eq 27).
     auto& P = points_;
@@ -194,7 +196,8 @@ template <int D, class K> void Solver<D, K>::updateStress(int p, const St& st, d
     });
 }
 
-template <int D, class K> void Solver<D, K>::scatterInternalForce(int p, const St& st, const Vec<D>& gravity)
+template <int D, class K>
+EMP_ALWAYS_INLINE void Solver<D, K>::scatterInternalForce(int p, const St& st, const Vec<D>& gravity)
 {
     // f_I += N_I m_p b - V_p sigma_p grad N_I (Eqs 13-14).
     auto& g = grid_;
