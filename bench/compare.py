@@ -7,7 +7,11 @@ the builds also time exactly that many steps and their checksums are compared: a
 that keeps the arithmetic keeps them.
 
     /usr/bin/python3.11 bench/compare.py OLD NEW [--rounds 7] [--cases gimp2,gimp3]
-        [--sizes 1e5] [--size3d 1e5] [--threads 1] [--min-time 2] [--steps N]
+        [--sizes 1e5] [--size3d 1e5] [--threads 1] [--min-time 2] [--steps N] [--metric cpu]
+
+--metric cpu rates each run by its CPU time (points x steps / CPU seconds) instead of its wall
+time: on one thread it is much less sensitive to other jobs on a shared machine (they still
+share caches and memory bandwidth), but it cannot measure thread scaling.
 
 OLD and NEW are anything git rev-parse takes (a commit, a branch, HEAD). NEW may also be
 'worktree': the current working tree as it is (built in build-compare/ beside build/).
@@ -52,6 +56,13 @@ def measure(exe, a):
     return {(r["case"], r["points"], r["threads"]): r for r in rows}
 
 
+def rate(row, metric):
+    """Particle-steps per second of one run, by wall or CPU time."""
+    if metric == "cpu":
+        return row["points"] * row["steps"] / row["cpu_time_s"]
+    return row["particle_steps_per_s"]
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("old")
@@ -63,6 +74,8 @@ def main():
     p.add_argument("--threads", default="1")
     p.add_argument("--min-time", type=float, default=2.0)
     p.add_argument("--steps", type=int, default=0, help="exactly N timed steps (checksums compared)")
+    p.add_argument("--metric", choices=("wall", "cpu"), default="wall",
+                   help="rate by wall time (default) or CPU time (one thread on a busy machine)")
     p.add_argument("--workdir", default="/tmp/emp-compare")
     p.add_argument("--jobs", type=int, default=os.cpu_count())
     a = p.parse_args()
@@ -75,12 +88,11 @@ def main():
         for which in (("old", "new") if r % 2 == 0 else ("new", "old")):
             res[which] = measure(exe[which], a)
         for key in res["old"]:
-            ratios.setdefault(key, []).append(res["new"][key]["particle_steps_per_s"] /
-                                              res["old"][key]["particle_steps_per_s"])
+            ratios.setdefault(key, []).append(rate(res["new"][key], a.metric) / rate(res["old"][key], a.metric))
             checks.setdefault(key, set()).add((res["old"][key]["checksum"], res["new"][key]["checksum"]))
         print(f"round {r + 1}/{a.rounds}: " + ", ".join(f"{k[0]} {k[1]} pts {k[2]} thr {ratios[k][-1]:.3f}"
                                                         for k in ratios), flush=True)
-    print(f"\nNEW/OLD particle-steps per second, {a.rounds} alternating rounds "
+    print(f"\nNEW/OLD particle-steps per {a.metric} second, {a.rounds} alternating rounds "
           f"(old {a.old}, new {a.new}):")
     print(f"{'case':<12}{'points':>9}{'threads':>8}{'median':>8}{'min':>8}{'q1':>8}{'q3':>8}{'max':>8}  checksums")
     bad = False
