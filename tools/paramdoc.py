@@ -1,7 +1,9 @@
-"""Writes the parameter reference doc/reference/<Class>.md of every engine and material of
-eigenmpm, and the index doc/reference/README.md, from the parameter declarations
-(eigenmpm.params): one page per class that declares ``params``, in the order of
-``eigenmpm.__all__``, with the methods that declare their arguments (``params.takes``).
+"""Writes the parameter reference doc/reference/<Name>.md of every engine and material of
+eigenmpm and of the DEM comparison (eigenmpm.dem), and the index doc/reference/README.md, from
+the parameter declarations (eigenmpm.params): one page per class that declares ``params``, with
+the methods that declare their arguments (``params.takes``), and one per function that declares
+them, in the order of ``eigenmpm.__all__`` then ``eigenmpm.dem.__all__``. A page is named as the
+user calls it first (``calibrateDem`` for ``eigenmpm.dem.calibrate``).
 
     make reference-doc
     PYTHONPATH=build/python:/usr/lib/x86_64-linux-gnu/yade-double/py /usr/bin/python3.11 tools/paramdoc.py
@@ -30,17 +32,72 @@ def _importPackage():
     return eigenmpm
 
 
-def documented():
-    """The classes of eigenmpm.__all__ that declare their parameters, in that order."""
-    eigenmpm = _importPackage()
+MODULES = ("eigenmpm", "eigenmpm.dem")
+GROUPS = (("core", "Engines and materials",
+           "The solver, its physics and output engines, and the materials of `eigenmpm`."),
+          ("dem", "DEM comparison (`eigenmpm.dem`)",
+           "The same specimen modelled by YADE's discrete elements beside EigenMPM: the pair, the calibration "
+           "of the DEM and its laboratory test, the run of the comparison examples and their report; "
+           "see [DEM fracture beside EigenMPM](../dem-comparison.md)."))
+
+
+class Entry:
+    """One page: a declared class or function.
+
+    name    the page's name, as the user calls it first (``calibrateDem``)
+    obj     the class or function; ``params`` its declarations
+    call    how it is called, e.g. ``eigenmpm.DemMpmPair``, ``eigenmpm.dem.runToDisplacement``
+    also    the other names it is exported under
+    owner   how the messages name it: the class's name or the function's
+    group   'core' (eigenmpm) or 'dem' (eigenmpm.dem), by the module that defines it
+    """
+
+    def __init__(self, name, obj, call):
+        self.name, self.obj, self.call, self.also = name, obj, call, []
+        self.params = obj.params
+        self.isClass = isinstance(obj, type)
+        self.owner = obj.__name__ if self.isClass else obj.__qualname__
+        self.group = "dem" if obj.__module__.startswith("eigenmpm.dem") else "core"
+        self.description = obj.description
+
+    @property
+    def __name__(self):
+        return self.name
+
+
+def _declares(obj):
     from eigenmpm.params import Param
-    classes = [getattr(eigenmpm, name) for name in eigenmpm.__all__]
-    return [c for c in classes if isinstance(c, type) and isinstance(c.__dict__.get("params"), tuple)
-            and all(isinstance(p, Param) for p in c.params)]
+    params = obj.__dict__.get("params") if isinstance(obj, type) else getattr(obj, "params", None)
+    return (isinstance(obj, type) or callable(obj)) and isinstance(params, tuple) \
+        and all(isinstance(p, Param) for p in params)
 
 
-def methods(cls):
-    """The methods of cls that declare their arguments, in the order they are defined."""
+def documented():
+    """The pages: the classes and functions of eigenmpm.__all__ and eigenmpm.dem.__all__ that
+    declare their parameters, in that order, each once."""
+    import importlib
+    _importPackage()
+    entries, seen = [], {}
+    for module in MODULES:
+        mod = importlib.import_module(module)
+        for name in mod.__all__:
+            obj = getattr(mod, name)
+            if not _declares(obj):
+                continue
+            if id(obj) in seen:
+                seen[id(obj)].also.append(f"{module}.{name}")
+                continue
+            seen[id(obj)] = Entry(name, obj, f"{module}.{name}")
+            entries.append(seen[id(obj)])
+    return entries
+
+
+def methods(entry):
+    """The methods of a class (an Entry or the class) that declare their arguments, in the order
+    they are defined."""
+    cls = entry.obj if isinstance(entry, Entry) else entry
+    if not isinstance(cls, type):
+        return []
     return [(name, m) for name, m in vars(cls).items() if callable(m) and hasattr(m, "params")]
 
 
@@ -71,15 +128,34 @@ def _split(description):
 
 
 def _call(prefix, params, positional):
-    """The call with every argument, one a line: required ones first, the others with their default."""
-    lines = [f"    {p.name}," if positional else f"    {p.name}=...,  # required" for p in params if p.required]
+    """The call with every argument, one a line: required ones first (the first `positional`
+    arguments without their keyword), the others with their default."""
+    lines = [f"    {p.name}," if i < positional else f"    {p.name}=...,  # required"
+             for i, p in enumerate(params) if p.required]
     lines += [f"    {p.name}={p.default!r}," for p in params if not p.required]
     return "\n".join([prefix + "("] + lines + [")"])
 
 
-def _instance(cls):
-    """How the examples call an object of cls: mpmEngine for MpmEngine."""
-    return cls.__name__[0].lower() + cls.__name__[1:]
+def _instance(entry):
+    """How the examples call an object of a class: mpmEngine for MpmEngine."""
+    return entry.name[0].lower() + entry.name[1:]
+
+
+def _syntax(entry):
+    """The sentence under the call: how the arguments are given, which are required."""
+    required = [f"`{p.name}`" for p in entry.params if p.required]
+    positional = getattr(entry.obj, "positional", 0) if entry.isClass else len(entry.params)
+    if positional == 0:
+        how = "Keyword arguments only"
+    elif positional == len(entry.params):
+        how = "Arguments by position, in this order, or by keyword"
+    else:
+        first = ", ".join(f"`{p.name}`" for p in entry.params[:positional])
+        how = f"{first} by position or keyword, the others by keyword only"
+    return (how + (f"; {', '.join(required)} required." if required else "; all have defaults.")
+            + " A value outside the allowed range is refused before anything is "
+            + ("built" if entry.isClass else "done")
+            + ", with `EigenMPM: <name> = <value> is invalid; allowed: <range>`.")
 
 
 def _table(params):
@@ -96,58 +172,71 @@ def _summary(description):
     return _prose(m.group(1) if m else first)
 
 
-def page(cls, others):
-    """The reference page of one class."""
-    description, example = _split(cls.description)
-    required = [p.name for p in cls.params if p.required]
-    out = [f"# {cls.__name__}", "", _summary(description), "", "## Syntax", "", "```python",
-           _call(f"eigenmpm.{cls.__name__}", cls.params, positional=False), "```", "",
-           "Keyword arguments only" + (f"; {', '.join(f'`{n}`' for n in required)} required." if required
-                                        else "; all have defaults.")
-           + " A value outside the allowed range is refused before anything is built, with "
-             "`EigenMPM: <name> = <value> is invalid; allowed: <range>`.", ""]
+def page(entry, others):
+    """The reference page of one class or function."""
+    description, example = _split(entry.description)
+    positional = getattr(entry.obj, "positional", 0) if entry.isClass else len(entry.params)
+    out = [f"# {entry.name}", "", _summary(description), ""]
+    if entry.also:
+        out += ["Also " + ", ".join(f"`{a}`" for a in entry.also) + ".", ""]
+    out += ["## Syntax", "", "```python", _call(entry.call, entry.params, positional), "```", "", _syntax(entry), ""]
     if example:
         out += ["## Example", "", "```python", example, "```", ""]
-    out += ["## Description", "", _prose(description), "", "## Parameters", "", _table(cls.params), ""]
-    calls = methods(cls)
+    out += ["## Description", "", _prose(description), "", "## Parameters", "", _table(entry.params), ""]
+    calls = methods(entry)
     if calls:
         out += ["## Methods", ""]
         for name, m in calls:
             mdesc, mexample = _split(m.description)
-            out += [f"### {name}", "", "```python", _call(f"{_instance(cls)}.{name}", m.params, True),
+            out += [f"### {name}", "", "```python", _call(f"{_instance(entry)}.{name}", m.params, len(m.params)),
                     "```", "", _prose(mdesc), ""]
             if mexample:
                 out += ["```python", mexample, "```", ""]
             out += [_table(m.params), ""]
-    related = [o for o in others if o is not cls and _mentions(cls, o)]
+    related = [o for o in others if o is not entry and _related(entry, o)]
     out += ["## Related", ""]
-    out += [f"- [{o.__name__}]({o.__name__}.md): {_summary(_split(o.description)[0])}" for o in related]
+    out += [f"- [{o.name}]({o.name}.md): {_summary(_split(o.description)[0])}" for o in related]
     out += ["- [Parameter reference index](README.md)", "", FOOTER]
     return "\n".join(out)
 
 
-def _text(cls):
-    parts = [cls.description] + [p.doc for p in cls.params]
-    for _, m in methods(cls):
+def _text(entry):
+    parts = [entry.description] + [p.doc for p in entry.params]
+    for _, m in methods(entry):
         parts += [m.description] + [p.doc for p in m.params]
     return "\n".join(parts)
 
 
+def _names(a, b):
+    """Whether the page of a names b (by any of its names)."""
+    names = {b.name, b.owner} | {n.rsplit(".", 1)[1] for n in b.also}
+    return any(re.search(rf"\b{re.escape(n)}\b", _text(a)) for n in names)
+
+
 def _mentions(a, b):
     """Whether the page of a and the page of b name each other (either way)."""
-    word = r"\b{}\b"
-    return bool(re.search(word.format(b.__name__), _text(a)) or re.search(word.format(a.__name__), _text(b)))
+    return _names(a, b) or _names(b, a)
 
 
-def index(classes):
+def _related(a, b):
+    """Pages of one group are related when either names the other; a DEM page also links the
+    solver pages it names (they do not link back: the comparison is a study beside the solver)."""
+    return _mentions(a, b) if a.group == b.group else a.group == "dem" and _names(a, b)
+
+
+def index(entries):
     rows = ["# Parameter reference", "",
-            "One page per engine and material of `eigenmpm`, generated from the parameter declarations "
-            "(`Param` in `py/eigenmpm/params.py`): every parameter with its default, unit, allowed range and "
-            "description, the same table that `help(eigenmpm.<Class>)` shows. Every value is checked against "
-            "its declaration before anything is built; the C++ core has no defaults of its own.", "",
-            "| page | what it is |", "|---|---|"]
-    rows += [f"| [{c.__name__}]({c.__name__}.md) | {_cell(_summary(_split(c.description)[0]))} |" for c in classes]
-    rows += ["", "## Regenerating", "",
+            "One page per engine and material of `eigenmpm` and per class and function of the DEM comparison, "
+            "generated from the parameter declarations (`Param` in `py/eigenmpm/params.py`): every parameter "
+            "with its default, unit, allowed range and description, the same table that `help(eigenmpm.<Name>)` "
+            "shows. Every value is checked against its declaration before anything is built or run; the C++ "
+            "core has no defaults of its own.", ""]
+    for group, title, text in GROUPS:
+        rows += [f"## {title}", "", text, "", "| page | what it is |", "|---|---|"]
+        rows += [f"| [{e.name}]({e.name}.md) | {_cell(_summary(_split(e.description)[0]))} |"
+                 for e in entries if e.group == group]
+        rows += [""]
+    rows += ["## Regenerating", "",
              "The pages are generated, not edited: change a declaration in `py/eigenmpm`, then run", "",
              "```sh", "make reference-doc", "# or, with the package built in build/:",
              "PYTHONPATH=build/python:/usr/lib/x86_64-linux-gnu/yade-double/py /usr/bin/python3.11 tools/paramdoc.py",
@@ -159,9 +248,9 @@ def index(classes):
 
 def pages():
     """{file name: text} of every page, the index included."""
-    classes = documented()
-    out = {f"{c.__name__}.md": page(c, classes) for c in classes}
-    out["README.md"] = index(classes)
+    entries = documented()
+    out = {f"{e.name}.md": page(e, entries) for e in entries}
+    out["README.md"] = index(entries)
     return out
 
 

@@ -1,12 +1,13 @@
 """Parameters declared once: name, default, unit, allowed values and docstring.
 
-An engine or material lists its parameters in a ``params`` tuple of :class:`Param`; a method
-declares its keyword arguments with :func:`takes`. From that one declaration come
+An engine or material lists its parameters in a ``params`` tuple of :class:`Param`; a method or
+a function declares its arguments with :func:`takes`. A parameter that means the same elsewhere
+reuses the declaration (:func:`declared`, :meth:`Param.replace`). From that one declaration come
 - the validation: :func:`apply` / :func:`values` check every value before anything is built
   and fail with ``EigenMPM: <name> = <value> is invalid; allowed: <range>``, then convert it
   to a plain Python type (so numpy scalars and YADE vectors are accepted);
-- the class docstring (:func:`declare`), so ``help(eigenmpm.MpmEngine)`` shows the table;
-- the reference pages ``doc/reference/<Class>.md`` (``tools/paramdoc.py``).
+- the docstring (:func:`declare`, :func:`takes`), so ``help(eigenmpm.MpmEngine)`` shows the table;
+- the reference pages ``doc/reference/<Name>.md`` (``tools/paramdoc.py``).
 The C++ core takes every value from here and has no defaults of its own.
 """
 import functools
@@ -66,6 +67,9 @@ class Param:
 
     def __init__(self, name, default, unit, doc, kind=None, bounds=None, choices=None, required=False,
                  function=False, accepts=None, check=None):
+        self._declared = dict(name=name, default=default, unit=unit, doc=doc, kind=kind, bounds=bounds,
+                              choices=choices, required=required, function=function, accepts=accepts,
+                              check=check)
         self.name, self.default, self.unit, self.doc = name, default, unit, doc
         self.kind = kind or self._inferKind(default)
         if self.kind not in KINDS:
@@ -81,6 +85,12 @@ class Param:
             raise ValueError(f"Param {name}: kind object needs check=")
         if default is not None:
             self.default = self.validate(default, f"declaration of {name}")  # a bad default fails at import
+
+    def replace(self, **changes):
+        """The same declaration with some fields changed, for a parameter that means the same
+        elsewhere: e.g. ``nu.replace(default=None, required=True)`` or ``.replace(name='fraction')``.
+        The kind stays that of this declaration."""
+        return Param(**dict(self._declared, kind=self.kind, **changes))
 
     @staticmethod
     def _inferKind(default):
@@ -257,20 +267,33 @@ def _documented(doc, params):
             + "\n".join(p.line() for p in params) + "\n")
 
 
-def _signature(params, first=()):
+def _signature(params, first=(), positional=0):
+    """The signature: `first` (e.g. self), then the parameters, the first `positional` of them
+    by position or keyword, the others by keyword only."""
     P = inspect.Parameter
     return inspect.Signature(list(first) + [
-        P(p.name, P.KEYWORD_ONLY if not first else P.POSITIONAL_OR_KEYWORD,
-          default=P.empty if p.required else p.default) for p in params])
+        P(p.name, P.POSITIONAL_OR_KEYWORD if i < positional else P.KEYWORD_ONLY,
+          default=P.empty if p.required else p.default) for i, p in enumerate(params)])
 
 
 def declare(cls):
     """Builds the class docstring (the text before the table is kept as ``cls.description`` for
-    the reference pages) and the signature help() shows from ``cls.params``."""
+    the reference pages) and the signature help() shows from ``cls.params``. The parameters are
+    keywords, except the first ``cls.positional`` (default 0), which may also be given by position
+    (the constructor then validates them with :func:`arguments`)."""
     cls.description = inspect.cleandoc(cls.__doc__ or "")
     cls.__doc__ = _documented(cls.__doc__, cls.params)
-    cls.__signature__ = _signature(cls.params)
+    cls.__signature__ = _signature(cls.params, positional=getattr(cls, "positional", 0))
     return cls
+
+
+def declared(owner, name):
+    """The declaration of parameter `name` of `owner` (a declared class, or a method or function
+    declared with :func:`takes`), to reuse it where a parameter means the same."""
+    for p in owner.params:
+        if p.name == name:
+            return p
+    raise KeyError(f"{getattr(owner, '__qualname__', owner)} declares no parameter {name!r}")
 
 
 def values(params, kwargs, owner):
@@ -299,29 +322,41 @@ def apply(obj, params, kwargs, owner):
         setattr(obj, name, v)
 
 
+def arguments(params, args, kwargs, owner, positional=None):
+    """:func:`values` of arguments given by position (the first `positional` of params, default
+    all, in the declared order) and by keyword."""
+    positional = len(params) if positional is None else positional
+    if len(args) > positional:
+        raise TypeError(f"EigenMPM: {owner} takes {positional} positional argument(s), {len(args)} given")
+    given = dict(zip([p.name for p in params], args))
+    twice = [k for k in kwargs if k in given]
+    if twice:
+        raise TypeError(f"EigenMPM: {owner} got {', '.join(twice)} twice")
+    given.update(kwargs)
+    return values(params, given, owner)
+
+
 def takes(*params):
-    """Declares the arguments of a method: its signature (in the order given, so required ones
-    first), the validation and conversion of every argument before the body runs, and the
-    parameter table in its docstring. The method is written without defaults."""
-    def wrap(method):
-        owner = method.__qualname__
-
-        @functools.wraps(method)
-        def call(self, *args, **kwargs):
-            if len(args) > len(params):
-                raise TypeError(f"EigenMPM: {owner} takes {len(params)} arguments, {len(args)} given")
-            given = dict(zip([p.name for p in params], args))
-            twice = [k for k in kwargs if k in given]
-            if twice:
-                raise TypeError(f"EigenMPM: {owner} got {', '.join(twice)} twice")
-            given.update(kwargs)
-            return method(self, **values(params, given, owner))
-
+    """Declares the arguments of a method (its first argument is ``self``) or of a function: its
+    signature (in the order given, so required ones first; by position or keyword), the
+    validation and conversion of every argument before the body runs, and the parameter table in
+    its docstring. The method or function is written without defaults."""
+    def wrap(body):
+        owner = body.__qualname__
         P = inspect.Parameter
-        call.__signature__ = _signature(params, [P("self", P.POSITIONAL_OR_KEYWORD)])
+        if next(iter(inspect.signature(body).parameters), None) == "self":
+            def call(self, *args, **kwargs):
+                return body(self, **arguments(params, args, kwargs, owner))
+            first = [P("self", P.POSITIONAL_OR_KEYWORD)]
+        else:
+            def call(*args, **kwargs):
+                return body(**arguments(params, args, kwargs, owner))
+            first = []
+        call = functools.wraps(body)(call)
+        call.__signature__ = _signature(params, first, positional=len(params))
         call.params = params
-        call.description = inspect.cleandoc(method.__doc__ or "")
-        call.__doc__ = _documented(method.__doc__, params)
+        call.description = inspect.cleandoc(body.__doc__ or "")
+        call.__doc__ = _documented(body.__doc__, params)
         return call
     return wrap
 

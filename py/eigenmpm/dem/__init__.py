@@ -24,11 +24,12 @@ By concern:
 - ``labtests``: tests of the DEM alone (:func:`uniaxialTension`; it resets the scene);
 - ``reports``: summary.json, load-displacement curves and crack patterns of a pair.
 """
-from .calibration import ALPHA_MAX, MODELS, NU_FIT, calibrate, calibrateMeasured, measure, modulusFactor, stiffnessRatio
+from .calibration import ALPHA_MAX, NU_FIT, calibrate, calibrateMeasured, measure, modulusFactor, stiffnessRatio
 from .labtests import uniaxialTension
 from .pair import DemMpmPair, runToDisplacement
 from .reports import crackPatterns, report, smoothed
-from .specimen import HCP_CONTACTS, HCP_FRACTION, LAYER, DemBC, DemSpecimen, cpmBondEnergy, hcpCenters, layersFor
+from .specimen import (HCP_CONTACTS, HCP_FRACTION, LAYER, MODELS, DemBC, DemSpecimen, cpmBondEnergy, hcpCenters,
+                       layersFor)
 
 __all__ = ["ALPHA_MAX", "MODELS", "NU_FIT", "calibrate", "calibrateMeasured", "measure", "modulusFactor",
            "stiffnessRatio", "uniaxialTension", "DemMpmPair", "runToDisplacement", "crackPatterns", "report",

@@ -16,15 +16,33 @@ follows from E and ft and the radius and is only reported. :func:`uniaxialTensio
 what the rule achieves; :func:`calibrateMeasured` corrects young and the bond strength by it.
 """
 import math
+import numbers
 
 import numpy as np
 
-from .labtests import uniaxialTension
-from .specimen import HCP_CONTACTS, HCP_FRACTION
+from ..fracture import EigenErosion
+from ..materials import ElasticMaterial
+from ..params import Param, declared, takes
+from .labtests import TEST_OPTIONS, uniaxialTension
+from .specimen import CALIBRATION, HCP_CONTACTS, HCP_FRACTION, MODEL, RADIUS
 
-MODELS = ("cpm", "jcfpm")
 NU_FIT = (0.384, 0.894)  # nu = a (1 - alpha) / (b + alpha), the 3-layer hcp slab (stiffnessRatio)
 ALPHA_MAX = 0.45  # above, the rotational stiffness makes PWaveTimeStep() steps unstable
+
+
+def _isCorrection(c):
+    return (isinstance(c, (tuple, list)) and len(c) == 2
+            and all(isinstance(k, numbers.Real) and not isinstance(k, bool) and math.isfinite(k) and k > 0
+                    for k in c))
+
+
+# The continuum constants the DEM is calibrated for: those of the MPM's material and erosion.
+YOUNG = declared(ElasticMaterial, "E")
+POISSON = declared(ElasticMaterial, "nu").replace(default=None, required=True)
+DENSITY = declared(ElasticMaterial, "rho")
+GC = declared(EigenErosion, "Gc")
+STRENGTH = Param("ft", None, "Pa", "tensile strength (uniaxial)", kind="float", bounds="(0, inf)", required=True)
+CONSTANTS = (MODEL.replace(default=None, required=True), YOUNG, POISSON, STRENGTH, GC, RADIUS)
 
 
 def stiffnessRatio(nu):
@@ -33,8 +51,7 @@ def stiffnessRatio(nu):
     :func:`uniaxialTension` (3 layers, alpha = 0 to 0.4) follows nu = a (1 - alpha) / (b + alpha)
     with (a, b) = NU_FIT = (0.384, 0.894) within 0.007, so alpha = (a - b nu) / (a + nu),
     limited to 0 <= alpha <= ALPHA_MAX (nu from 0.17 to 0.38 is reachable)."""
-    if not -1.0 < nu < 0.5:
-        raise ValueError(f"EigenMPM: nu = {nu!r} is invalid; allowed: -1 < nu < 0.5")
+    nu = POISSON.validate(nu, "stiffnessRatio")
     a, b = NU_FIT
     return min(ALPHA_MAX, max(0.0, (a - b * nu) / (a + nu)))
 
@@ -44,16 +61,24 @@ def modulusFactor(alpha):
     return HCP_FRACTION * HCP_CONTACTS / 4.0 * (2.0 + 3.0 * alpha) / (4.0 + alpha)
 
 
-def calibrate(model, E, nu, ft, Gc, radius, correction=(1.0, 1.0)):
-    """DEM micro-parameters for continuum constants E (Pa), nu, ft (tensile strength, Pa) and
-    Gc (J/m2) at sphere radius `radius` (m), by the rule of the module doc, with the bond modulus
-    and the bond strength multiplied by correction = (kE, kS) (see :func:`calibrateMeasured`;
-    relDuctility follows, so that Gc is kept). Returns a dict: the material's keyword arguments
-    under 'material', and the rule's numbers."""
-    model = _model(model)
-    for name, v in (("E", E), ("ft", ft), ("Gc", Gc), ("radius", radius)):
-        if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-            raise ValueError(f"EigenMPM: {name} = {v!r} is invalid; allowed: {name} > 0")
+@takes(*CONSTANTS,
+       Param("correction", (1.0, 1.0), "", "factors (kE, kS) of the bond modulus and the bond strength "
+                                          "(see calibrateMeasured)", kind="object",
+             accepts="(kE, kS), two positive numbers", check=_isCorrection))
+def calibrate(model, E, nu, ft, Gc, radius, correction):
+    """DEM micro-parameters (CpmMat or JCFpmMat) for the continuum constants of a material, by a
+    calibration rule. The constants are E (Pa), nu, ft (tensile strength, Pa) and Gc (J/m2), at
+    sphere radius `radius` (m); the rule (eigenmpm.dem.calibration, doc/dem-comparison.md) is that
+    of an hcp lattice under affine deformation, with the bond modulus and the bond strength
+    multiplied by correction = (kE, kS) (see :func:`calibrateMeasured`; relDuctility follows, so
+    that Gc is kept). Returns a dict: the material's keyword arguments under 'material', and the
+    rule's numbers.
+
+    Example::
+
+        cal = eigenmpm.calibrateDem('cpm', E=30e9, nu=0.2, ft=3e6, Gc=100, radius=0.005)
+        cal['material']      # CpmMat(**cal['material'], density=...)
+    """
     alpha = stiffnessRatio(nu)
     cE = modulusFactor(alpha)
     kE, kS = (float(c) for c in correction)
@@ -80,18 +105,31 @@ def calibrate(model, E, nu, ft, Gc, radius, correction=(1.0, 1.0)):
     return out
 
 
-def measure(calibration, rho, layers=3, directions=("x", "y"), **kw):
-    """:func:`uniaxialTension` along each direction; returns E, nu, ft averaged over them, the
-    single results under 'runs' (without curves) and the CPU seconds."""
-    runs = [uniaxialTension(calibration, rho, layers=layers, direction=d, **kw) for d in directions]
+# What the measurement of a calibration adds: the slab and the directions of the test.
+_LAYERS = declared(uniaxialTension, "layers")
+_DIRECTIONS = Param("directions", ("x", "y"), "", "directions of the uniaxial tension tests, averaged",
+                    kind="object", accepts="a non-empty tuple or list of 'x' and 'y'",
+                    check=lambda d: isinstance(d, (tuple, list)) and len(d) > 0 and all(x in ("x", "y") for x in d))
+
+
+@takes(CALIBRATION, DENSITY, _LAYERS, _DIRECTIONS, *TEST_OPTIONS)
+def measure(calibration, rho, layers, directions, **options):
+    """What a calibration gives: :func:`uniaxialTension` along each direction. Returns E, nu, ft
+    averaged over the directions, the single results under 'runs' (without curves) and the CPU
+    seconds."""
+    runs = [uniaxialTension(calibration, rho, layers=layers, direction=d, **options) for d in directions]
     out = {k: float(np.mean([r[k] for r in runs])) for k in ("E", "nu", "ft")}
     out["runs"] = [{k: v for k, v in r.items() if k != "curve"} for r in runs]
     out["cpu_s"] = sum(r["cpu_s"] for r in runs)
     return out
 
 
-def calibrateMeasured(model, E, nu, ft, Gc, radius, rho, layers=3, iterations=1, **kw):
-    """:func:`calibrate`, then `iterations` corrections: the DEM is measured (:func:`measure`:
+@takes(*CONSTANTS, DENSITY, _LAYERS,
+       Param("iterations", 1, "", "corrections by measurement (0: measure the plain rule)", bounds="[0, inf)"),
+       _DIRECTIONS, *TEST_OPTIONS)
+def calibrateMeasured(model, E, nu, ft, Gc, radius, rho, layers, iterations, **measurement):
+    """DEM micro-parameters by the calibration rule, corrected by measuring the DEM. That is
+    :func:`calibrate`, then `iterations` corrections: the DEM is measured (:func:`measure`:
     uniaxial tension along x and y, averaged) and young and the bond strength scaled by target /
     measured of E and ft. The result carries every measurement under 'history' and the last,
     of the returned parameters, under 'measured' (so iterations=0 measures the plain rule).
@@ -100,7 +138,7 @@ def calibrateMeasured(model, E, nu, ft, Gc, radius, rho, layers=3, iterations=1,
     history = []
     for it in range(iterations + 1):
         cal = calibrate(model, E, nu, ft, Gc, radius, correction=(kE, kS))
-        m = measure(cal, rho, layers, **kw)
+        m = measure(cal, rho, layers, **measurement)
         m.update(correctionE=kE, correctionStrength=kS, errorE=m["E"] / E - 1, errorFt=m["ft"] / ft - 1,
                  errorNu=m["nu"] - nu)
         history.append(m)
@@ -109,10 +147,3 @@ def calibrateMeasured(model, E, nu, ft, Gc, radius, rho, layers=3, iterations=1,
     cal["measured"] = history[-1]
     cal["history"] = history
     return cal
-
-
-def _model(model):
-    m = str(model).lower()
-    if m not in MODELS:
-        raise ValueError(f"EigenMPM: DEM model = {model!r} is invalid; allowed: 'cpm' or 'jcfpm'")
-    return m

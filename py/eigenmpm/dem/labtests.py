@@ -5,14 +5,39 @@ import time
 
 import numpy as np
 
-from .specimen import LAYER, DemSpecimen
+from ..materials import ElasticMaterial
+from ..params import Param, declared, takes
+from .specimen import CALIBRATION, DAMPING, DT_FRACTION, LAYER, LAYERS, DemSpecimen
+
+# How the test runs, beside the slab and the direction (shared with calibrateMeasured and measure).
+_LENGTH = Param("length", None, "m", "length of the prism along the pull; default 24 r", kind="float",
+                bounds="(0, inf)")
+_WIDTH = Param("width", None, "m", "width of the prism across the pull; default 12 r", kind="float", bounds="(0, inf)")
+_RATE = Param("strainRate", None, "1/s", "strain rate of the pull; default: the peak (about eps0) after about "
+                                         "60 wave transits over the length (quasi-static)", kind="float",
+              bounds="(0, inf)")
+_END = Param("endStrain", None, "", "strain at which the test ends; default 6 eps0 (JCFpm) or "
+                                    "(4 + relDuctility / 2) eps0 (CPM), eps0 the bonds' strain at damage "
+                                    "onset or break", kind="float", bounds="(0, inf)")
+_DAMPING = DAMPING.replace(default=0.4, doc="YADE's local damping (NewtonIntegrator.damping), for a "
+                                            "quasi-static response")
+_STOP = Param("stopBelow", 0.5, "", "past the peak, the test stops once the stress is below stopBelow x the "
+                                    "peak (0: it runs to endStrain)", bounds="[0, 1)")
+TEST_OPTIONS = (_LENGTH, _WIDTH, _RATE, _END, _DAMPING, DT_FRACTION, _STOP)
 
 
-def uniaxialTension(calibration, rho, layers=3, length=None, width=None, direction="x", strainRate=None,
-                    endStrain=None, damping=0.4, dtFraction=0.8, stopBelow=0.5):
-    """Resets the scene (O.reset()), then runs a quasi-static uniaxial tension test of the DEM
-    with the given calibration (a dict of :func:`calibrate`) on a prism of `layers` hcp layers
-    (the slab of the specimen), length x width in plane (default 24 r x 12 r), pulled along
+@takes(CALIBRATION, declared(ElasticMaterial, "rho"),
+       LAYERS.replace(default=3, doc="hcp layers of the prism (those of the specimen's slab)"),
+       _LENGTH, _WIDTH,
+       Param("direction", "x", "", "direction of the pull: 'x' (along the close-packed rows) or 'y'",
+             choices=("x", "y")),
+       _RATE, _END, _DAMPING, DT_FRACTION, _STOP)
+def uniaxialTension(calibration, rho, layers, length, width, direction, strainRate, endStrain, damping,
+                    dtFraction, stopBelow):
+    """Uniaxial tension test of the DEM alone: the E, nu and ft a calibration gives. It resets
+    the scene (O.reset()), then pulls, quasi-statically, a prism of DEM spheres with the given
+    calibration (a dict of :func:`calibrate`) of `layers` hcp layers (the slab of the
+    specimen), length x width in plane (default 24 r x 12 r), pulled along
     `direction` ('x': along the close-packed rows, or 'y') by the velocity of its two end columns
     (one sphere thick, only the pulled component blocked), with damping (YADE's local damping)
     for a quasi-static response. Stress = reaction / (width x represented thickness), strain =
@@ -22,7 +47,14 @@ def uniaxialTension(calibration, rho, layers=3, length=None, width=None, directi
     lateral contraction of the middle third, at 40 % of the peak), ft (peak stress, Pa),
     strainAtPeak, Gf (dissipated energy / cross-section at the end, J/m2, when the specimen is
     cut through), spheres, steps, wall_s, and the curve (strain, stress). The run stops at
-    endStrain or, past the peak, once the stress is below stopBelow x peak (None: at endStrain)."""
+    endStrain or, past the peak, once the stress is below stopBelow x peak.
+
+    Example::
+
+        cal = eigenmpm.calibrateDem('cpm', 30e9, 0.2, 3e6, 100, 0.005)
+        res = eigenmpm.uniaxialTension(cal, rho=2400, direction='y')
+        res['E'], res['nu'], res['ft']
+    """
     from yade import O, pack
     O.reset()
     r = calibration["radius"]

@@ -5,10 +5,15 @@ import time
 
 import numpy as np
 
+from ..engines import MpmEngine
+from ..fracture import EigenErosion
+from ..materials import ElasticMaterial
+from ..params import Param, arguments, declare, declared, takes
 from ..ramp import rampTimeTo
 from . import reports
-from .calibration import _model, calibrate
-from .specimen import DemSpecimen, layersFor
+from .calibration import DENSITY, GC, POISSON, STRENGTH, YOUNG, calibrate
+from .reports import BAND, COMPONENT, EXTRA, LOAD, OUT, PAIR, SIGN, SMOOTH, TITLE
+from .specimen import CALIBRATION, DAMPING, DT_FRACTION, LAYERS, MODEL, RADIUS, DemSpecimen, layersFor
 
 
 class _Pair:
@@ -24,49 +29,107 @@ class _Pair:
         return np.mean(self._engine.solver.positions()[self._ids] - self._x0, axis=0)
 
 
+def _isPredicate(region):
+    return callable(region) or hasattr(region, "aabb")
+
+
+# The arguments of a pair of conditions: the MPM side as MpmEngine.velocityBC, the DEM side.
+_LABEL = Param("label", None, "", "name of the condition in both models (pairs, curves, summary)", kind="str",
+               required=True)
+_DEM_REGION = Param("demRegion", None, "", "the DEM spheres whose centre lies in this predicate (specimen "
+                                           "coordinates); default: `points` or `region` enlarged by r",
+                    kind="object", accepts="a yade.pack predicate or a callable pred(x, pad)", check=_isPredicate)
+_BC = MpmEngine.velocityBC
+
+
+@declare
 class DemMpmPair:
-    """The same specimen (a yade.pack predicate, 2D in x-y) as a plane-stress EigenMPM body of
+    """One specimen modelled twice in one YADE scene, by EigenMPM and by YADE's discrete elements.
+    The specimen (a yade.pack predicate, 2D in x-y) is a plane-stress EigenMPM body of
     thickness t (MpmEngine.fill + EigenErosion) and a DEM slab (see eigenmpm.dem.specimen), the DEM
     placed `offset` away (default: beside the MPM specimen in +x, a gap of a quarter of its
-    width). Give the calibration (a dict of :func:`calibrate`) or let it be made by the rule.
-    Boundary conditions go on both through :meth:`velocityBC` / :meth:`fix`; :meth:`engines`
-    returns the engines of both; :meth:`setTimeStep` sets one O.dt below both critical steps."""
+    width). Give the calibration (a dict of calibrateDem or calibrateMeasured) or let it be made
+    by calibrateDem's rule. Boundary conditions go on both through :meth:`velocityBC` /
+    :meth:`fix`; :meth:`engines` returns the engines of both; :meth:`setTimeStep` sets one O.dt
+    below both critical steps.
 
-    def __init__(self, predicate, E, nu, rho, Gc, ft, h, radius, thickness=1.0, model="cpm",
-                 calibration=None, layers=None, offset=None, ppc=2, alpha=1.5, kappaOverH=1.1,
-                 damping=0.0, erosionPeriod=100, label="mpm"):
+    Example::
+
+        pair = em.DemMpmPair(pack.inAlignedBox((0, 0, 0), (0.45, 0.1, 0)), E=30e9, nu=0.2, rho=2400,
+                             Gc=100, ft=3e6, h=0.01, radius=0.005, thickness=0.05)
+        pair.notch([(0.225, -0.005, 0), (0.225, 0.05, 0)])
+        pair.fix('left', points=pack.inAlignedBox((-1, -1, -1), (0.01, 0.005, 1)), components='y')
+        pair.velocityBC('load', points=pack.inAlignedBox((0.22, 0.095, -1), (0.23, 1, 1)),
+                        components='y', velocity=(0, -0.02, 0), rampTime=1e-3)
+        O.engines = pair.engines() + [em.callEvery(pair.record, iterPeriod=10)]
+        pair.setTimeStep(0.8)
+        O.run(5000, True)
+        pair.summary('load')
+    """
+
+    positional = 1  # the specimen may be given first, without its keyword
+    params = (
+        Param("predicate", None, "", "the specimen: a yade.pack predicate in the x-y plane, bounded in x and y",
+              kind="object", accepts="a yade.pack predicate", check=lambda p: hasattr(p, "aabb"), required=True),
+        YOUNG, POISSON, DENSITY, GC, STRENGTH,
+        declared(MpmEngine, "h"),
+        RADIUS,
+        declared(MpmEngine, "thickness"),
+        MODEL,
+        CALIBRATION.replace(required=False, doc="DEM micro-parameters (a dict of calibrateDem or "
+                                                "calibrateMeasured, for `model`); default: calibrateDem's rule"),
+        LAYERS,
+        Param("offset", None, "m", "position of the DEM slab relative to the MPM specimen; default: beside it "
+                                   "in +x, a gap of max(w / 4, 4 r + 2 h) for the specimen width w",
+              kind="vector"),
+        declared(MpmEngine, "ppc"),
+        declared(EigenErosion, "alpha"),
+        declared(EigenErosion, "kappaOverH").replace(default=1.1),
+        DAMPING,
+        declared(EigenErosion, "iterPeriod").replace(name="erosionPeriod"),
+        declared(MpmEngine, "label").replace(doc="YADE label of the MpmEngine; it prefixes the keys of its "
+                                                 "plotData()"),
+    )
+
+    def __init__(self, *args, **kw):
         from yade import O
-        from ..engines import MpmEngine
-        from ..fracture import EigenErosion
-        from ..materials import ElasticMaterial
-        self.model = _model(model)
+        a = arguments(self.params, args, kw, "DemMpmPair", positional=self.positional)
+        self.model = a["model"]
+        E, nu, rho, Gc, ft, h, radius, thickness = (a[k] for k in ("E", "nu", "rho", "Gc", "ft", "h", "radius",
+                                                                   "thickness"))
         self.constants = dict(E=E, nu=nu, rho=rho, Gc=Gc, ft=ft, thickness=thickness, h=h, radius=radius)
-        self.calibration = calibration or calibrate(self.model, E, nu, ft, Gc, radius)
+        self.calibration = a["calibration"] or calibrate(self.model, E, nu, ft, Gc, radius)
         if self.calibration["model"] != self.model:
-            raise ValueError("EigenMPM: the calibration is for another DEM model")
-        self.mpm = MpmEngine(dim=2, h=h, ppc=ppc, thickness=thickness, label=label)
-        self.mpm.fill(predicate, ElasticMaterial(E=E, nu=nu, rho=rho, planeStress=True))
-        self.erosion = EigenErosion(engine=self.mpm, Gc=Gc, alpha=alpha, kappaOverH=kappaOverH,
-                                    iterPeriod=erosionPeriod)
-        lo, hi = predicate.aabb()
+            raise ValueError(f"EigenMPM: the calibration is for DEM model {self.calibration['model']!r}, "
+                             f"not model = {self.model!r} (DemMpmPair)")
+        self.mpm = MpmEngine(dim=2, h=h, ppc=a["ppc"], thickness=thickness, label=a["label"])
+        self.mpm.fill(a["predicate"], ElasticMaterial(E=E, nu=nu, rho=rho, planeStress=True))
+        self.erosion = EigenErosion(engine=self.mpm, Gc=Gc, alpha=a["alpha"], kappaOverH=a["kappaOverH"],
+                                    iterPeriod=a["erosionPeriod"])
+        lo, hi = a["predicate"].aabb()
+        offset = a["offset"]
         if offset is None:
             w = hi[0] - lo[0]
             offset = (w + max(0.25 * w, 4 * radius + 2 * h), 0.0, 0.0)
-        self.layers = int(layers) if layers else layersFor(thickness, radius)
-        self.dem = DemSpecimen(predicate, self.calibration, rho, radius, self.layers, thickness, offset,
-                               damping=damping)
+        self.layers = a["layers"] or layersFor(thickness, radius)
+        self.dem = DemSpecimen(a["predicate"], self.calibration, rho, radius, self.layers, thickness, offset,
+                               damping=a["damping"])
         self.pairs = {}
         self.curves = {}
         self._t0 = None
         O.timingEnabled = True
 
     # --- specimen and conditions ------------------------------------------------------------
-    def notch(self, vertices, width=None):
+    @takes(Param("vertices", None, "m", "the notch's polyline (2 or more points), specimen coordinates",
+                 kind="points", required=True),
+           Param("width", None, "m", "width of the DEM notch; default 2.02 r (it cuts every bond across it)",
+                 kind="float", bounds="(0, inf)"))
+    def notch(self, vertices, width):
         """A notch along the polyline `vertices` (specimen coordinates): in the MPM a phantom-node
         crack (MpmEngine.crack), in the DEM the spheres whose centre lies within width/2 (default
         1.01 r, which cuts the bonds across it) of the polyline, measured normal to a segment
         (no round caps at the ends), are removed: a notch 2 to 4 r wide that ends within r of
-        the last vertex."""
+        the last vertex. Returns the ids of the removed spheres."""
         self.mpm.crack(vertices)
         half = 0.5 * width if width else 1.01 * self.dem.radius
         x, ids = self.dem.centres()
@@ -75,8 +138,9 @@ class DemMpmPair:
         self.dem.remove(gone)
         return gone
 
-    def velocityBC(self, label, points=None, region=None, demRegion=None, components="xy",
-                   velocity=(0, 0, 0), rampTime=0.0):
+    @takes(_LABEL, declared(_BC, "points"), declared(_BC, "region"), _DEM_REGION, declared(_BC, "components"),
+           declared(_BC, "velocity"), declared(_BC, "rampTime"))
+    def velocityBC(self, label, points, region, demRegion, components, velocity, rampTime):
         """A velocity condition on both models: on the MPM as ``MpmEngine.velocityBC(points= or
         region=)``, on the DEM on the spheres whose centre lies in demRegion (specimen coordinates;
         default: `points`, enlarged by the radius r). Returns the pair (.mpm, .dem)."""
@@ -96,14 +160,17 @@ class DemMpmPair:
             ids = self.dem.select(region, -self.dem.radius)
         else:
             raise ValueError(f"EigenMPM: give demRegion for condition {label!r}")
-        d = self.dem.velocityBC(label, ids, components, velocity, rampTime)
+        d = self.dem.velocityBC(label, ids, components or "xy", velocity, rampTime)
         pair = _Pair(label, m, d, mpmIds, self.mpm)
         self.pairs[label] = pair
         self.curves[label] = []
         return pair
 
-    def fix(self, label, points=None, region=None, demRegion=None, components="xy"):
-        return self.velocityBC(label, points, region, demRegion, components, (0, 0, 0))
+    @takes(_LABEL, declared(_BC, "points"), declared(_BC, "region"), _DEM_REGION, declared(_BC, "components"))
+    def fix(self, label, points, region, demRegion, components):
+        """Zero velocity on both models (see :meth:`velocityBC`): a support (all components) or a
+        roller (one). Returns the pair (.mpm, .dem)."""
+        return self.velocityBC(label, points, region, demRegion, components, (0.0, 0.0, 0.0), 0.0)
 
     # --- engines and time step --------------------------------------------------------------
     def engines(self):
@@ -115,11 +182,10 @@ class DemMpmPair:
         """(DEM, MPM) critical time steps, s: PWaveTimeStep() and MpmEngine.criticalTimeStep()."""
         return self.dem.criticalTimeStep(), self.mpm.criticalTimeStep()
 
-    def setTimeStep(self, fraction=0.8):
+    @takes(DT_FRACTION.replace(name="fraction"))
+    def setTimeStep(self, fraction):
         """O.dt = fraction x the smaller critical step; returns it."""
         from yade import O
-        if not 0 < fraction <= 1:
-            raise ValueError(f"EigenMPM: fraction = {fraction!r} is invalid; allowed: 0 < fraction <= 1")
         O.dt = fraction * min(self.criticalTimeSteps())
         return O.dt
 
@@ -134,7 +200,8 @@ class DemMpmPair:
             self.curves[label].append((O.time, p.mpmDisplacement(), np.asarray(list(p.mpm.reaction), float),
                                        p.dem.displacement(), np.asarray(list(p.dem.reaction), float)))
 
-    def curve(self, label, component=1):
+    @takes(_LABEL.replace(doc="name of the condition"), COMPONENT)
+    def curve(self, label, component):
         """Arrays (t, u_mpm, F_mpm, u_dem, F_dem) of one component of a condition's record."""
         c = self.curves[label]
         if not c:
@@ -156,8 +223,13 @@ class DemMpmPair:
         mine = {f"{self.dem.tag}_{n}" for n in ("forces", "collider", "interactions", "control", "newton")}
         return [e for e in O.engines if e.label in mine]
 
-    def summary(self, load=None, component=1, smooth=0.01):
-        """Scalars for summary.json (see :func:`eigenmpm.dem.reports.summary`)."""
+    @takes(LOAD.replace(default=None, required=False, doc="the loading condition (its label), whose reaction "
+                                                          "component gives the peak loads; default: none"),
+           COMPONENT, SMOOTH)
+    def summary(self, load, component, smooth):
+        """Scalars for summary.json (see ``eigenmpm.dem.reports.summary``): both models' peak load,
+        particles, dissipated energies, broken bonds and eroded points, wall times, time steps and
+        the calibration."""
         return reports.summary(self, load, component, smooth)
 
 
@@ -175,14 +247,25 @@ def _distanceToPolyline(p, v, caps=True):
     return best
 
 
-def runToDisplacement(pair, out, load, displacement, velocity, rampTime=0.0, dtFraction=0.8, title="",
-                      extra=None, cpu0=None, sign=1.0, band=None, component=1, records=1000):
-    """Runs the pair until the load point has moved by `displacement` (m) under `velocity`
-    (m/s) reached over the ramp `rampTime` (s) (paper Eq 34), with O.dt = dtFraction x the smaller
-    critical step, recording both models about `records` times and reporting progress; a run the
-    solver stops with an error keeps what it computed (eigenmpm.cli.runSteps). Then report() and
-    a print of the main numbers: returns the summary, with `cpu_time_s` since `cpu0`
-    (time.process_time()) when given."""
+@takes(PAIR.replace(doc="the pair to run, its conditions set"), OUT, LOAD,
+       Param("displacement", None, "m", "distance the load point moves", kind="float", bounds="(0, inf)",
+             required=True),
+       Param("velocity", None, "m/s", "speed of the load point after the ramp", kind="float", bounds="(0, inf)",
+             required=True),
+       declared(_BC, "rampTime"), DT_FRACTION, TITLE, EXTRA,
+       Param("cpu0", None, "s", "time.process_time() at the start of the script, for cpu_time_s", kind="float",
+             bounds="[0, inf)"),
+       SIGN, BAND, COMPONENT,
+       Param("records", 1000, "", "about how many times both models are recorded", bounds="[1, inf)"))
+def runToDisplacement(pair, out, load, displacement, velocity, rampTime, dtFraction, title, extra, cpu0, sign,
+                      band, component, records):
+    """Runs a DemMpmPair until its load point has moved by a given distance, then writes its report.
+    The load point moves by `displacement` (m) under `velocity` (m/s) reached over the ramp
+    `rampTime` (s) (paper Eq 34), with O.dt = dtFraction x the smaller critical step; both models
+    are recorded about `records` times and the progress reported; a run the solver stops with an
+    error keeps what it computed (eigenmpm.cli.runSteps). Then :func:`report` and a print of the
+    main numbers: returns the summary, with `cpu_time_s` since `cpu0` (time.process_time()) when
+    given."""
     from yade import O
     from ..cli import runSteps
     from ..engines import callEvery

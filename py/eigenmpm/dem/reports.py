@@ -2,8 +2,35 @@
 curves (CSV and plot) and the crack patterns of both models side by side."""
 import numpy as np
 
+from ..params import Param, takes
 
-def summary(pair, load=None, component=1, smooth=0.01):
+
+def _isPair(p):
+    from .pair import DemMpmPair
+    return isinstance(p, DemMpmPair)
+
+
+# The outputs' parameters, shared by DemMpmPair.summary / curve and runToDisplacement.
+PAIR = Param("pair", None, "", "the DemMpmPair", kind="object", accepts="a DemMpmPair", check=_isPair, required=True)
+OUT = Param("out", None, "", "directory of summary.json, the curves and the crack patterns", kind="str",
+            accepts="non-empty string", check=lambda d: d != "", required=True)
+LOAD = Param("load", None, "", "the loading condition (its label), whose reaction component gives the load",
+             kind="str", required=True)
+COMPONENT = Param("component", 1, "", "the component of the condition's vectors: 0 (x), 1 (y) or 2 (z)",
+                  bounds="[0, 2]")
+SMOOTH = Param("smooth", 0.01, "", "window of the moving average of the reaction (the peak load), as a "
+                                   "fraction of the record", bounds="[0, 1]")
+TITLE = Param("title", "", "", "title of the plots")
+EXTRA = Param("extra", None, "", "entries added to summary.json (e.g. the script's parameters)", kind="object",
+              accepts="a dict", check=lambda e: isinstance(e, dict))
+SIGN = Param("sign", 1.0, "", "factor of the written and plotted load and displacement (-1: pushing down "
+                              "counts as positive)", choices=(1.0, -1.0))
+BAND = Param("band", None, "", "an experimental band drawn under the curves: (label, displacements mm, lower "
+                               "loads kN, upper loads kN)", kind="object", accepts="a 4-tuple",
+             check=lambda b: isinstance(b, (tuple, list)) and len(b) == 4)
+
+
+def summary(pair, load, component, smooth):
     """Scalars for summary.json of a DemMpmPair: both models' peak load (N, the given
     condition's reaction component), particles, dissipated energies (J), broken bonds and eroded points, wall times,
     time steps, the calibration and the thickness scale of the DEM. Peak loads are those of
@@ -34,15 +61,21 @@ def summary(pair, load=None, component=1, smooth=0.01):
     return out
 
 
-def smoothed(F, fraction=0.01):
+def smoothed(F, fraction=SMOOTH.default):
     """Moving average over a window of `fraction` of the samples (at least 1)."""
     F = np.asarray(F, float)
     k = max(1, int(round(fraction * len(F))))
     return np.convolve(F, np.ones(k) / k, mode="same") if len(F) else F
 
 
-def report(pair, out, load, component=1, title="", extra=None, wall=None, cpu=None, sign=1.0, band=None):
-    """Writes DIR/summary.json (:func:`summary` plus particles, steps, wall_time_s,
+@takes(PAIR, OUT, LOAD, COMPONENT, TITLE, EXTRA,
+       Param("wall", None, "s", "wall time of the run, for wall_time_s and particle_steps_per_s", kind="float",
+             bounds="[0, inf)"),
+       Param("cpu", None, "s", "CPU time of the script, for cpu_time_s", kind="float", bounds="[0, inf)"),
+       SIGN, BAND)
+def report(pair, out, load, component, title, extra, wall, cpu, sign, band):
+    """Writes the outputs of a DemMpmPair: its summary, load-displacement curves and crack
+    patterns. That is DIR/summary.json (:func:`summary` plus particles, steps, wall_time_s,
     particle_steps_per_s overall and per model, `extra`), DIR/load_displacement.csv and .png
     (both models' reaction of condition `load` against their load-point displacement, in kN and
     mm, times `sign`) and DIR/crack_patterns.png (MPM eroded points, DEM broken bonds, side by
@@ -51,7 +84,7 @@ def report(pair, out, load, component=1, title="", extra=None, wall=None, cpu=No
     import os
     from yade import O
     os.makedirs(out, exist_ok=True)
-    s = summary(pair, load, component)
+    s = pair.summary(load, component)
     steps = O.iter
     s.update(particles=s["mpm_points"] + s["dem_spheres"], steps=steps)
     if wall is not None:

@@ -14,11 +14,34 @@ import math
 import numpy as np
 
 from .. import builders
+from ..params import Param
 from ..ramp import rampFactor
 
+MODELS = ("cpm", "jcfpm")  # YADE's CpmMat / JCFpmMat bonds, the laws the specimen is made of
 HCP_FRACTION = math.pi / (3.0 * math.sqrt(2.0))  # solid fraction of hcp (and fcc)
 HCP_CONTACTS = 12
 LAYER = 2.0 * math.sqrt(6.0) / 3.0  # hcp layer spacing / r
+
+
+def _isCalibration(c):
+    return isinstance(c, dict) and c.get("model") in MODELS and "material" in c and "radius" in c
+
+
+# Parameters of a DEM specimen, shared by the pair, the calibration and the laboratory tests.
+MODEL = Param("model", "cpm", "", "DEM bond law: 'cpm' (YADE's concrete particle model, exponential "
+                                  "softening) or 'jcfpm' (JCFpm, brittle bonds)", choices=MODELS)
+RADIUS = Param("radius", None, "m", "radius r of the DEM spheres", kind="float", bounds="(0, inf)", required=True)
+CALIBRATION = Param("calibration", None, "", "DEM micro-parameters: a dict returned by calibrateDem "
+                                             "(eigenmpm.dem.calibrate) or calibrateMeasured",
+                    kind="object", accepts="a dict of calibrateDem or calibrateMeasured",
+                    check=_isCalibration, required=True)
+LAYERS = Param("layers", None, "", "hcp layers of the DEM slab; default: the number whose represented "
+                                   "thickness (layers x 2 sqrt(6)/3 r) is nearest to the thickness (layersFor)",
+               kind="int", bounds="[1, inf)")
+DAMPING = Param("damping", 0.0, "", "YADE's local damping of the DEM (NewtonIntegrator.damping); 0 for "
+                                    "dynamics like the MPM's", bounds="[0, 1)")
+DT_FRACTION = Param("dtFraction", 0.8, "", "O.dt as a fraction of the smallest critical time step",
+                    bounds="(0, 1]")
 
 
 def hcpCenters(predicate, radius, layers):
