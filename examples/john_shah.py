@@ -84,6 +84,7 @@ import eigenmpm as em
 from eigenmpm import plots
 from eigenmpm.cli import runSteps, scriptArgs
 from eigenmpm.fracture import linked
+from eigenmpm.ramp import rampDisplacement
 
 DEFAULTS = dict(gamma=0.5, h_mm=0.635, kappaOverH=1.15, alpha=2.0, endTime_us=4000.0, dt_us=0.1,
                 v0_m_s=0.06, rampTime_us=196.0, overhang_mm=12.7, flaw_mm=1.27, notchWidth_mm=0.0, flawWidth_mm=0.0,
@@ -212,8 +213,8 @@ def main(argv):
     summary = analyse(o, X0, crack.core.events(), kappa)
     cs = crack.summary()
     curve = np.array(curve)
-    t, t0 = mpm.solver.time, o["rampTime_us"] * 1e-6
-    u = o["v0_m_s"] * (t - 0.5 * t0 if t > t0 else t * t / (2 * t0))  # imposed load-point displacement
+    t = mpm.solver.time
+    u = rampDisplacement(t, o["v0_m_s"], o["rampTime_us"] * 1e-6)  # imposed load-point displacement
     summary.update(end_time_us=1e6 * t, load_point_displacement_mm=1e3 * u, peak_load_N=float(curve[:, 1].max()),
                    thickness_m=h, dissipated_energy_J=cs["dissipated_energy_J"], eroded_count=cs["eroded_count"],
                    particles=n, steps=steps, wall_time_s=wall, particle_steps_per_s=n * steps / wall, dt_s=O.dt,

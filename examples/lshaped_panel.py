@@ -38,6 +38,7 @@ from yade import O, pack, plot
 import eigenmpm as em
 from eigenmpm import plots
 from eigenmpm.cli import runSteps, scriptArgs
+from eigenmpm.ramp import rampDisplacement, rampTimeTo
 
 DEFAULTS = dict(h_mm=5.0, ppc=2, shape="uGIMP", alpha=1.5, kappaOverH=1.1, velocity_m_s=0.01,
                 endDisplacement_mm=0.5, rampTime_ms=0.0, smoothWindow_ms=0.2, dtFraction=0.8, loadWidth_mm=0.0, E=25.85e9, nu=0.18, rho=2500.0, Gc=89.0)
@@ -84,10 +85,9 @@ def main(argv):
     v, t0 = o["velocity_m_s"], o["rampTime_ms"] * 1e-3
 
     def imposed(t):  # the load point's displacement under the velocity ramp (paper Eq 34)
-        return v * (t - 0.5 * t0) if t >= t0 else v * t * t / (2 * t0)
+        return rampDisplacement(t, v, t0)
 
-    endTime = o["endDisplacement_mm"] * 1e-3 / v + (0.5 * t0 if o["endDisplacement_mm"] * 1e-3 >= 0.5 * v * t0 else 0)
-    steps = int(round(endTime / O.dt))
+    steps = int(round(rampTimeTo(o["endDisplacement_mm"] * 1e-3, v, t0) / O.dt))
     every = max(1, steps // 2000)
     curve = []
     O.engines = [mpm, crack,

@@ -25,6 +25,7 @@ from yade import O, pack
 
 import eigenmpm as em
 from eigenmpm.cli import scriptArgs
+from eigenmpm.ramp import rampDisplacement, rampTimeTo
 
 DEFAULTS = dict(h_mm=5.0, alpha=1.5, kappaOverH=1.1, u_mm=0.2, E=25.85e9, nu=0.18, rho=2500.0, Gc=89.0)
 PAPER = {(5.0, 1.5, 1.1): 15.082, (5.0, 1.0, 1.1): 17.230, (5.0, 2.0, 1.1): 13.758, (10.0, 1.5, 1.1): 16.14,
@@ -47,8 +48,7 @@ def main(argv):
     O.dt = 0.8 * mpm.criticalTimeStep()
     O.engines = [mpm, crack]
     start = time.time()
-    T = o["u_mm"] * 1e-3 / v + 0.5 * t0
-    O.run(int(round(T / O.dt)), True)
+    O.run(int(round(rampTimeTo(o["u_mm"] * 1e-3, v, t0) / O.dt)), True)
     # the load averaged over the last 0.2 ms (the small vibrations left by the ramp)
     F = []
     for _ in range(int(0.2e-3 / O.dt)):
@@ -69,7 +69,7 @@ def main(argv):
     rings = [(np.sqrt(e0 * e1), psi[(r >= e0) & (r < e1) & (th > 150) & (th < 210)]) for e0, e1 in zip(edges[:-1], edges[1:])]
     rings = [(rr, p.mean()) for rr, p in rings if len(p) > 3]
     slope = float(np.polyfit(np.log([q[0] for q in rings]), np.log([q[1] for q in rings]), 1)[0]) if len(rings) > 2 else None
-    u = v * (mpm.solver.time - 0.5 * t0)
+    u = rampDisplacement(mpm.solver.time, v, t0)
     Fc = F * np.sqrt(o["Gc"] / G[k])
     summary = dict(load_kN=F / 1e3, displacement_mm=u * 1e3, max_G_J_m2=float(G[k]),
                    max_G_point_mm=(1e3 * x[near[k]]).tolist(), critical_load_kN=Fc / 1e3,

@@ -12,6 +12,16 @@ def rampFactor(t, rampTime):
     return min(max(t / rampTime, 0.0), 1.0)
 
 
+def rampDisplacement(t, velocity, rampTime):
+    """Distance moved by time t >= 0 by a point driven at `velocity` (m/s) reached over the ramp
+    `rampTime` (s), the integral of rampFactor: v t^2 / (2 t0) within the ramp, v (t - t0 / 2)
+    after it, v t without a ramp. The inverse of :func:`rampTimeTo`."""
+    v, t0 = velocity, rampTime
+    if t0 <= 0:
+        return v * t
+    return v * (t - 0.5 * t0) if t >= t0 else v * t * t / (2 * t0)
+
+
 def rampTimeTo(displacement, velocity, rampTime):
     """Time at which a point driven at `velocity` (m/s) reached over the ramp `rampTime` (s) has
     moved by `displacement` (m, same sign as the velocity): u = v t^2 / (2 t0) within the ramp,

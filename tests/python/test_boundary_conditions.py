@@ -5,7 +5,7 @@ import pytest
 from yade import O, pack
 
 import eigenmpm as em
-from eigenmpm.ramp import rampFactor, rampTimeTo
+from eigenmpm.ramp import rampDisplacement, rampFactor, rampTimeTo
 
 
 def concrete():
@@ -96,12 +96,17 @@ def test_ramp_velocity_region_moves_covered_points_exactly():
 
 @pytest.mark.parametrize("u, t0", [(2e-6, 1e-3), (5e-4, 1e-3), (5e-4, 0.0)])
 def test_ramp_time_to_a_displacement_inverts_the_ramped_motion(u, t0):
-    # integrate v rampFactor(t) up to rampTimeTo(u): within the ramp and after it
+    # integrate v rampFactor(t) up to rampTimeTo(u): within the ramp and after it; rampDisplacement
+    # is that integral in closed form
     v, n = 0.02, 200000
     T = rampTimeTo(u, v, t0)
     dt = T / n
     moved = sum(v * rampFactor((k + 0.5) * dt, t0) for k in range(n)) * dt
     assert moved == pytest.approx(u, rel=1e-6)
+    assert rampDisplacement(T, v, t0) == pytest.approx(u, rel=1e-12)
+    half = 0.5 * T
+    assert rampDisplacement(half, v, t0) == pytest.approx(sum(v * rampFactor((k + 0.5) * dt, t0)
+                                                              for k in range(n // 2)) * dt, rel=1e-6)
     assert rampFactor(-1.0, t0) == (0.0 if t0 > 0 else 1.0) and rampFactor(2 * t0 + 1, t0) == 1.0
 
 
