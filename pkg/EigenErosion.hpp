@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "Archive.hpp"
 #include "CellList.hpp"
 #include "ElasticMaterial.hpp"
 #include "MaterialPoints.hpp"
@@ -53,6 +54,21 @@ public:
     /// Points eroded by the last apply(), ascending, and their stress just before erosion.
     const std::vector<int>& lastEroded() const { return eroding_; }
     const std::vector<Mat<D>>& stressBeforeErosion() const { return before_; }
+
+    /// The state a restart needs (dissipated energy, events, the last step's search flag);
+    /// the settings are saved by the caller, which constructs the stage with them.
+    void saveState(ArchiveWriter& w) const
+    {
+        w.value(dissipated_);
+        w.array(events_);
+        w.value(searched_);
+    }
+    void loadState(ArchiveReader& r)
+    {
+        dissipated_ = r.value<double>();
+        r.array(events_);
+        searched_ = r.value<bool>();
+    }
 
 private:
     void buildList(const MaterialPoints<D>& P, const std::vector<int>& around, double margin);

@@ -22,6 +22,23 @@ template <int D> struct MaterialPoints {
 
     std::size_t size() const { return x.size(); }
 
+    /// Calls f(name, array) for every per-point array: the state a restart needs. A new field
+    /// is added here and in add(); saving and loading then follow.
+    template <class F> void forEachArray(F&& f)
+    {
+        f("x", x);
+        f("v", v);
+        f("mass", mass);
+        f("volume", volume);
+        f("strain", strain);
+        f("stress", stress);
+        f("psiPlus", psiPlus);
+        f("psiMinus", psiMinus);
+        f("history", history);
+        f("damage", damage);
+        f("material", material);
+    }
+
     void add(const Vec<D>& pos, const Vec<D>& vel, double m, double vol, int mat)
     {
         x.push_back(pos);

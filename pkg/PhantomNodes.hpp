@@ -27,6 +27,13 @@ public:
     /// Adds a crack; returns its id. 2D: a polyline of >= 2 distinct vertices. 3D: a planar
     /// polygon of >= 3 vertices (non-planarity above 1e-6 of its size is refused).
     int addCrack(const std::vector<Vec<D>>& vertices);
+    /// Appends a crack exactly as saved (Solver::loadState): its vertices moved with the
+    /// material since addCrack checked them, so they are not checked again.
+    int restoreCrack(const std::vector<Vec<D>>& vertices)
+    {
+        cracks_.push_back(vertices);
+        return static_cast<int>(cracks_.size()) - 1;
+    }
     bool empty() const { return cracks_.empty(); }
     std::size_t numCracks() const { return cracks_.size(); }
     const std::vector<Vec<D>>& vertices(int c) const { return cracks_[c]; }

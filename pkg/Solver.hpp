@@ -7,6 +7,8 @@
 #pragma once
 #include <Eigen/Dense>
 #include <cstdint>
+#include <istream>
+#include <ostream>
 #include <limits>
 #include <memory>
 #include <vector>
@@ -25,6 +27,14 @@
 #include "VelocityCondition.hpp"
 
 namespace emp {
+
+/// What an archive of Solver::saveState holds: its dimension and kernel, read from its header
+/// so that the caller can pick the solver class (the stream is left after the header).
+struct StateHeader {
+    int dim;
+    std::string kernel;
+};
+StateHeader readStateHeader(std::istream& is);
 
 /// Every setting of a solver. No defaults here: the caller (the Python engine, which declares
 /// the defaults once, or a test) gives every value, and the constructor validates them.
@@ -79,6 +89,18 @@ public:
     /// One explicit step of length dt on nThreads OpenMP threads. Throws ParameterError when dt
     /// exceeds the critical step, SimulationError on a non-finite value or a point off the grid.
     void step(double dt, int nThreads);
+
+    // --- state (restart) ----------------------------------------------------------------
+    /// Writes everything the continuation needs (SolverState.cpp): settings, domain and grid,
+    /// materials (with their law by name), points and all their fields, velocity conditions,
+    /// tractions, cracks at their current position, the erosion stage and its diagnostics, time
+    /// and counters. Throws SimulationError when a grid condition cannot be saved (one added
+    /// with addCondition that is not a VelocityCondition).
+    void saveState(std::ostream& os) const;
+    /// A solver restored from saveState's output; continuing it gives bitwise the results of
+    /// the solver that was saved. Throws SimulationError, naming what is wrong, for an archive of
+    /// another format, version or configuration, or a damaged one.
+    static std::shared_ptr<Solver> loadState(std::istream& is);
 
     // --- diagnostics --------------------------------------------------------------------
     double kineticEnergy() const;

@@ -1,0 +1,201 @@
+// Saving and restoring a solver's state (Solver::saveState / loadState): the format is a header
+// (format name, version, dimension, kernel) and named sections, each checked on reading.
+#include <sstream>
+
+#include "Archive.hpp"
+#include "Laws.hpp"
+#include "Solver.hpp"
+
+namespace emp {
+
+namespace {
+const char* kFormat = "EigenMPM solver state";
+constexpr std::uint32_t kVersion = 1;
+}  // namespace
+
+StateHeader readStateHeader(std::istream& is)
+{
+    ArchiveReader r(is);
+    const std::string format = r.string();
+    if (format != kFormat) r.fail("no EigenMPM solver state (it starts with '" + format.substr(0, 40) + "')");
+    const auto version = r.value<std::uint32_t>();
+    if (version != kVersion)
+        r.fail("format version " + std::to_string(version) + "; this EigenMPM reads version " + std::to_string(kVersion));
+    StateHeader h;
+    h.dim = r.value<std::int32_t>();
+    h.kernel = r.string();
+    return h;
+}
+
+template <int D, class K> void Solver<D, K>::saveState(std::ostream& os) const
+{
+    for (std::size_t i = 0; i < conditions_.size(); ++i)
+        if (!std::dynamic_pointer_cast<VelocityCondition<D>>(conditions_[i]))
+            throw SimulationError("EigenMPM: cannot save the state: grid condition " + std::to_string(i) +
+                                  " is not a VelocityCondition and has no saved form");
+    ArchiveWriter w(os);
+    w.string(kFormat);
+    w.value(kVersion);
+    w.value<std::int32_t>(D);
+    w.string(K::name);
+
+    w.string("settings");
+    w.value(settings_.h);
+    w.value(settings_.ppc);
+    w.value(settings_.gravity);
+    w.value(settings_.massCutoff);
+    w.value(settings_.padding);
+
+    w.string("solver");
+    w.value(haveDomain_);
+    w.value(domainLo_);
+    w.value(domainHi_);
+    w.value(initialized_);
+    w.value(massCutoffAbs_);
+    w.value(time_);
+    w.value(maxSpeed_);
+    w.value(steps_);
+    w.value(grid_.origin);
+    w.value(grid_.n);
+
+    w.string("materials");
+    w.array(materials_);
+    for (const auto& m : materials_) w.string(lawNames()[m.law]);
+
+    w.string("points");
+    const_cast<MaterialPoints<D>&>(points_).forEachArray([&](const char* name, const auto& a) {
+        w.string(name);
+        w.array(a);
+    });
+
+    w.string("conditions");
+    w.value<std::uint64_t>(velocityConditions_.size());
+    for (const auto& c : velocityConditions_) {
+        w.array(c->nodes);
+        w.array(c->points);
+        w.value(c->mask);
+        w.value(c->velocity);
+        w.value(c->rampTime);
+        w.value(c->reaction);
+    }
+
+    w.string("tractions");
+    w.value<std::uint64_t>(tractions_.size());
+    for (const auto& t : tractions_) {
+        w.array(t.points);
+        w.value(t.traction);
+        w.value(t.rampTime);
+        w.value(t.layer);
+    }
+
+    w.string("cracks");
+    w.value<std::uint64_t>(phantom_.numCracks());
+    for (std::size_t c = 0; c < phantom_.numCracks(); ++c) w.array(phantom_.vertices(static_cast<int>(c)));
+
+    w.string("erosion");
+    w.value(erosion_ != nullptr);
+    if (erosion_) {
+        w.value(erosion_->settings());
+        erosion_->saveState(w);
+    }
+    w.string("end");
+    if (!os) throw SimulationError("EigenMPM: writing the solver state failed");
+}
+
+template <int D, class K> std::shared_ptr<Solver<D, K>> Solver<D, K>::loadState(std::istream& is)
+{
+    const StateHeader h = readStateHeader(is);
+    ArchiveReader r(is);
+    if (h.dim != D || h.kernel != K::name)
+        r.fail("a " + std::to_string(h.dim) + "D " + h.kernel + " solver, read as a " + std::to_string(D) + "D " +
+               K::name + " one");
+    r.expect("settings");
+    SolverSettings st;
+    st.h = r.value<double>();
+    st.ppc = r.value<int>();
+    st.gravity = r.value<Eigen::Vector3d>();
+    st.massCutoff = r.value<double>();
+    st.padding = r.value<int>();
+    auto s = std::make_shared<Solver<D, K>>(st);
+
+    r.expect("solver");
+    s->haveDomain_ = r.value<bool>();
+    s->domainLo_ = r.value<Vec<D>>();
+    s->domainHi_ = r.value<Vec<D>>();
+    const bool initialized = r.value<bool>();
+    s->massCutoffAbs_ = r.value<double>();
+    s->time_ = r.value<double>();
+    s->maxSpeed_ = r.value<double>();
+    s->steps_ = r.value<std::int64_t>();
+    const auto origin = r.value<Vec<D>>();
+    const auto n = r.value<std::array<int, D>>();
+    if (initialized) {
+        s->grid_.resize(origin, st.h, n);
+        s->initialized_ = true;
+    }
+
+    r.expect("materials");
+    r.array(s->materials_);
+    for (auto& m : s->materials_) {
+        const std::string law = r.string();
+        m.law = lawIndex(law);
+        if (m.law < 0) r.fail("a material with the law '" + law + "', which this EigenMPM does not have");
+    }
+
+    r.expect("points");
+    s->points_.forEachArray([&](const char* name, auto& a) {
+        r.expect(name);
+        r.array(a);
+        if (a.size() != s->points_.x.size()) r.fail(std::string("a point array '") + name + "' of another length");
+    });
+
+    r.expect("conditions");
+    const auto nc = r.value<std::uint64_t>();
+    for (std::uint64_t i = 0; i < nc; ++i) {
+        auto c = std::make_shared<VelocityCondition<D>>();
+        r.array(c->nodes);
+        r.array(c->points);
+        c->mask = r.value<unsigned>();
+        c->velocity = r.value<Eigen::Vector3d>();
+        c->rampTime = r.value<double>();
+        c->reaction = r.value<Eigen::Vector3d>();
+        s->velocityConditions_.push_back(c);
+        s->conditions_.push_back(c);
+    }
+
+    r.expect("tractions");
+    const auto nt = r.value<std::uint64_t>();
+    for (std::uint64_t i = 0; i < nt; ++i) {
+        TractionCondition t;
+        r.array(t.points);
+        t.traction = r.value<Eigen::Vector3d>();
+        t.rampTime = r.value<double>();
+        t.layer = r.value<double>();
+        s->tractions_.push_back(std::move(t));
+    }
+
+    r.expect("cracks");
+    const auto ncr = r.value<std::uint64_t>();
+    for (std::uint64_t c = 0; c < ncr; ++c) {
+        std::vector<Vec<D>> v;
+        r.array(v);
+        s->phantom_.restoreCrack(v);
+    }
+
+    r.expect("erosion");
+    if (r.value<bool>()) {
+        auto e = std::make_shared<EigenErosion<D>>(r.value<ErosionSettings>());
+        e->loadState(r);
+        s->erosion_ = e;
+    }
+    r.expect("end");
+    return s;
+}
+
+#define EMP_INSTANTIATE(D, K)                                                      \
+    template void Solver<D, K>::saveState(std::ostream&) const;                    \
+    template std::shared_ptr<Solver<D, K>> Solver<D, K>::loadState(std::istream&);
+EMP_SOLVER_CONFIGURATIONS(EMP_INSTANTIATE)
+#undef EMP_INSTANTIATE
+
+}  // namespace emp

@@ -1,0 +1,144 @@
+// Saving and restoring a solver (Solver::saveState / loadState): continuing a restored solver
+// gives bitwise the results of the one that was saved, in every configuration, with a crack
+// and while eroding, on 1 and 2 threads; archives that cannot be restored are refused loudly.
+#include <sstream>
+
+#include "test_helpers.hpp"
+
+namespace {
+
+using emp::Vec;
+
+template <class C> struct StateTest : ::testing::Test {};
+TYPED_TEST_SUITE(StateTest, emptest::AllSolvers);
+
+/// A block with a random velocity field, a velocity condition, a ramped traction, an interior
+/// crack and an erosion stage whose Gc some points reach within the run.
+template <int D, class K> std::shared_ptr<emp::Solver<D, K>> scene(unsigned seed)
+{
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    auto st = emptest::typicalSettings(0.01, 2);
+    st.gravity = Eigen::Vector3d(0.0, -9.81, 0.0);
+    auto s = std::make_shared<emp::Solver<D, K>>(st);
+    const int mat = s->addMaterial(1e7, 0.25, 1000, D == 2, emp::lawIndex("spectral"));
+    const int soft = s->addMaterial(5e6, 0.2, 900, false, emp::lawIndex("volumetric"));
+    const double c = s->materials()[mat].waveSpeed();
+    std::array<int, D> lo, hi;
+    lo.fill(2);
+    hi.fill(D == 2 ? 9 : 6);
+    const auto ids = emptest::addBlock<D>(*s, lo, hi, mat, [&](const Vec<D>& x) {
+        Vec<D> v;
+        for (int d = 0; d < D; ++d) v[d] = 5e-3 * c * (std::sin(90.0 * x[(d + 1) % D]) + 0.3 * u(rng));
+        return v;
+    });
+    for (std::size_t k = 0; k < ids.size(); k += 3) s->points().material[ids[k]] = soft;
+    std::vector<int> bottom, top;
+    for (int p : ids) {
+        if (s->points().x[p][1] < 0.0225) bottom.push_back(p);
+        if (s->points().x[p][1] > (hi[1] - 0.25) * 0.01) top.push_back(p);
+    }
+    s->addVelocityCondition({}, bottom, 2u, Eigen::Vector3d::Zero(), 0.0);
+    s->addTraction(top, Eigen::Vector3d(0, 4e4, 0), 1e-4, 0.01);
+    if (D == 2)
+        s->addCrack({Eigen::Vector3d(0.031, 0.052, 0), Eigen::Vector3d(0.062, 0.049, 0)});
+    else
+        s->addCrack({Eigen::Vector3d(0.031, 0.04, 0.031), Eigen::Vector3d(0.052, 0.04, 0.031),
+                     Eigen::Vector3d(0.052, 0.041, 0.052), Eigen::Vector3d(0.031, 0.041, 0.052)});
+    s->setErosion(std::make_shared<emp::EigenErosion<D>>(emp::ErosionSettings{0.02, 2.0, 0.011}));
+    return s;
+}
+
+template <class Sv> void expectSame(const Sv& a, const Sv& b)
+{
+    const auto &P = a.points(), &Q = b.points();
+    ASSERT_EQ(P.size(), Q.size());
+    for (std::size_t p = 0; p < P.size(); ++p) {
+        ASSERT_EQ(P.x[p], Q.x[p]) << "point " << p;
+        ASSERT_EQ(P.v[p], Q.v[p]) << "point " << p;
+        ASSERT_EQ(P.stress[p], Q.stress[p]) << "point " << p;
+        ASSERT_EQ(P.history[p], Q.history[p]) << "point " << p;
+        ASSERT_EQ(P.damage[p], Q.damage[p]) << "point " << p;
+    }
+    EXPECT_EQ(a.time(), b.time());
+    EXPECT_EQ(a.steps(), b.steps());
+    EXPECT_EQ(a.reaction(0), b.reaction(0));
+    EXPECT_EQ(a.erosion()->dissipatedEnergy(), b.erosion()->dissipatedEnergy());
+    EXPECT_EQ(a.erosion()->erodedCount(), b.erosion()->erodedCount());
+    EXPECT_EQ(a.phantomNodes().vertices(0), b.phantomNodes().vertices(0));
+    EXPECT_EQ(a.criticalTimeStep(), b.criticalTimeStep());
+}
+
+TYPED_TEST(StateTest, RestoredSolverContinuesBitwise)
+{
+    constexpr int D = TypeParam::D;
+    using K = typename TypeParam::K;
+    using Sv = emp::Solver<D, K>;
+    for (int threads : {1, 2}) {
+        auto a = scene<D, K>(3);
+        const double dt = 0.5 * a->criticalTimeStep();
+        for (int k = 0; k < 15; ++k) a->step(dt, threads);
+        std::stringstream archive;
+        a->saveState(archive);
+        auto b = Sv::loadState(archive);
+        expectSame(*a, *b);
+        for (int k = 0; k < 25; ++k) {
+            a->step(dt, threads);
+            b->step(dt, 3 - threads);  // and on the other thread count
+        }
+        expectSame(*a, *b);
+        EXPECT_GT(a->erosion()->erodedCount(), 0u) << "the run should erode";
+        EXPECT_GT(a->phantomNodes().numTwins(), 0);
+    }
+}
+
+TYPED_TEST(StateTest, ArchivesThatCannotBeRestoredAreRefused)
+{
+    constexpr int D = TypeParam::D;
+    using K = typename TypeParam::K;
+    using Sv = emp::Solver<D, K>;
+    auto a = scene<D, K>(4);
+    a->step(0.5 * a->criticalTimeStep(), 1);
+    std::stringstream archive;
+    a->saveState(archive);
+    const std::string bytes = archive.str();
+    // Truncated anywhere.
+    for (std::size_t cut : {std::size_t(3), bytes.size() / 2, bytes.size() - 1}) {
+        std::stringstream s(bytes.substr(0, cut));
+        const std::string m = emptest::messageOf<emp::SimulationError>([&] { Sv::loadState(s); });
+        EXPECT_TRUE(emptest::contains(m, "cannot be restored")) << m;
+    }
+    // Another version.
+    std::string other = bytes;
+    const std::size_t versionAt = 8 + std::string("EigenMPM solver state").size();
+    other[versionAt] = static_cast<char>(other[versionAt] + 1);
+    std::stringstream sv(other);
+    const std::string mv = emptest::messageOf<emp::SimulationError>([&] { Sv::loadState(sv); });
+    EXPECT_TRUE(emptest::contains(mv, "format version 2")) << mv;
+    // Not a state at all.
+    std::stringstream junk(std::string(200, 'x'));
+    EXPECT_THROW(Sv::loadState(junk), emp::SimulationError);
+    // Another configuration.
+    std::stringstream s2(bytes);
+    if (D == 2) {
+        const std::string m = emptest::messageOf<emp::SimulationError>([&] { emp::Solver<3, K>::loadState(s2); });
+        EXPECT_TRUE(emptest::contains(m, "read as a 3D")) << m;
+    } else {
+        const std::string m = emptest::messageOf<emp::SimulationError>([&] { emp::Solver<2, K>::loadState(s2); });
+        EXPECT_TRUE(emptest::contains(m, "read as a 2D")) << m;
+    }
+}
+
+/// A condition with no saved form.
+template <int D> struct Unsaveable : emp::GridCondition<D> {};
+
+TYPED_TEST(StateTest, ConditionWithoutASavedFormIsRefusedAtSaveTime)
+{
+    auto a = scene<TypeParam::D, typename TypeParam::K>(5);
+    a->addCondition(std::make_shared<Unsaveable<TypeParam::D>>());
+    std::stringstream archive;
+    const std::string m = emptest::messageOf<emp::SimulationError>([&] { a->saveState(archive); });
+    EXPECT_TRUE(emptest::contains(m, "grid condition 1 is not a VelocityCondition")) << m;
+}
+
+}  // namespace
