@@ -1,6 +1,6 @@
 // The optimised step (pkg/Solver.cpp: binned, coloured, fused, cached stencils, erosion by cell
 // lists with a force correction) against the plain reference step (reference_step.hpp) on random
-// scenes: every configuration, with two materials of different laws, a velocity condition, a
+// scenes: every configuration and every registered law, with two materials of different laws, a velocity condition, a
 // ramped traction, gravity, and optionally a pre-existing crack and eigenerosion. They must
 // agree to round-off after several steps, and erode the same points at the same steps.
 #include <memory>
@@ -15,17 +15,17 @@ template <class C> struct ReferenceStepTest : ::testing::Test {};
 TYPED_TEST_SUITE(ReferenceStepTest, emptest::AllSolvers);
 
 /// A random block: points jittered off a lattice, random velocities of a few 1e-3 of the wave
-/// speed, a second material (another law) in one half, the bottom layer fixed, a traction on the
+/// speed, a material of law `law` in one half and one of the next registered law in the other, the bottom layer fixed, a traction on the
 /// top layer, gravity; optionally an interior crack and an erosion stage.
 template <int D, class K>
-std::unique_ptr<emp::Solver<D, K>> randomScene(unsigned seed, bool crack, double Gc)
+std::unique_ptr<emp::Solver<D, K>> randomScene(unsigned seed, bool crack, double Gc, int law)
 {
     std::mt19937 rng(seed);
     auto st = emptest::typicalSettings(0.01, 2);
     st.gravity = Eigen::Vector3d(0.3, -9.81, 0.5);
     auto s = std::make_unique<emp::Solver<D, K>>(st);
-    const int a = s->addMaterial(1e7, 0.25, 1000, D == 2, emp::lawIndex("spectral"));
-    const int b = s->addMaterial(2e7, 0.3, 1500, false, emp::lawIndex(D == 2 ? "volumetric" : "none"));
+    const int a = s->addMaterial(1e7, 0.25, 1000, D == 2, law);
+    const int b = s->addMaterial(2e7, 0.3, 1500, false, (law + 1) % emp::RegisteredLaws::size);
     std::uniform_real_distribution<double> u(-1.0, 1.0);
     const double dx = 0.005, c = s->materials()[a].waveSpeed();
     const int n[3] = {16, 12, D == 3 ? 8 : 1};
@@ -57,14 +57,23 @@ std::unique_ptr<emp::Solver<D, K>> randomScene(unsigned seed, bool crack, double
     return s;
 }
 
+template <int D, class K> void compare(bool crack, bool erosion, int law);
+
 template <int D, class K> void compare(bool crack, bool erosion)
 {
+    // Every registered law leads one scene (and follows in the next).
+    for (int law = 0; law < emp::RegisteredLaws::size; ++law) compare<D, K>(crack, erosion, law);
+}
+
+template <int D, class K> void compare(bool crack, bool erosion, int law)
+{
+    SCOPED_TRACE(std::string("law ") + emp::lawNames()[law]);
     const int steps = 12;
     // Gc: 0.6 of the largest G_p (Eq 23) that a run without erosion reaches, so that some
     // points erode during the run.
     double Gc = 0;
     if (erosion) {
-        auto probe = randomScene<D, K>(7, crack, 1e300);
+        auto probe = randomScene<D, K>(7, crack, 1e300, law);
         const double dt = 0.4 * probe->criticalTimeStep();
         std::vector<int> all(probe->points().size());
         for (std::size_t p = 0; p < all.size(); ++p) all[p] = static_cast<int>(p);
@@ -74,7 +83,7 @@ template <int D, class K> void compare(bool crack, bool erosion)
         }
         Gc *= 0.6;
     }
-    auto s = randomScene<D, K>(7, crack, Gc);
+    auto s = randomScene<D, K>(7, crack, Gc, law);
     emptest::ReferenceScene<D, K> ref(*s);
     const double dt = 0.4 * s->criticalTimeStep();
     for (int k = 0; k < steps; ++k) {
