@@ -5,6 +5,8 @@
 #include <boost/python.hpp>
 #include <boost/python/numpy.hpp>
 #include <cctype>
+#include <cstdint>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -100,6 +102,9 @@ template <int D> struct BindErosion {
         bp::class_<Er, std::shared_ptr<Er>, boost::noncopyable>(name, bp::no_init)
             .def("__init__", bp::make_constructor(&make, bp::default_call_policies(),
                                                   (bp::arg("Gc"), bp::arg("alpha"), bp::arg("kappa"))))
+            .add_property("address", +[](const Er& e) { return reinterpret_cast<std::uintptr_t>(&e); },
+                          "Identity of the C++ stage (a stage restored from a saved state has a new "
+                          "Python wrapper at each access, so compare addresses, not with `is`).")
             .add_property("Gc", +[](const Er& e) { return e.settings().Gc; })
             .add_property("alpha", +[](const Er& e) { return e.settings().alpha; })
             .add_property("kappa", +[](const Er& e) { return e.settings().kappa; })
@@ -310,6 +315,16 @@ template <class Sv> struct Bind {
         return d;
     }
 
+    static bp::object saveState(const Sv& s)
+    {
+        std::ostringstream os(std::ios::binary);
+        {
+            NoGil nogil;
+            s.saveState(os);
+        }
+        const std::string b = os.str();
+        return bp::object(bp::handle<>(PyBytes_FromStringAndSize(b.data(), static_cast<Py_ssize_t>(b.size()))));
+    }
     static void expose(const char* name)
     {
         bp::class_<Sv, std::shared_ptr<Sv>, boost::noncopyable>(name, bp::no_init)
@@ -359,7 +374,9 @@ template <class Sv> struct Bind {
             .add_property("numTwins", +[](const Sv& s) { return s.phantomNodes().numTwins(); })
             .def("markedNodes", &markedNodes)
             .def("energyReleaseRate", &energyReleaseRate, (bp::arg("ids"), bp::arg("bruteForce")))
-            .add_property("erosion", +[](const Sv& s) { return s.erosion(); });
+            .add_property("erosion", +[](const Sv& s) { return s.erosion(); })
+            .def("saveState", &saveState,
+                 "The solver's whole state as bytes (Solver::saveState); _eigenmpm.solverFromState restores it.");
     }
 };
 
@@ -390,6 +407,31 @@ BOOST_PYTHON_MODULE(_eigenmpm)
     EMP_SOLVER_CONFIGURATIONS(EMP_EXPOSE)
 #undef EMP_EXPOSE
     bp::scope().attr("solvers") = solvers;
+    bp::def("solverFromState", +[](bp::object data) -> bp::object {
+        char* buf = nullptr;
+        Py_ssize_t len = 0;
+        if (PyBytes_AsStringAndSize(data.ptr(), &buf, &len) != 0) bp::throw_error_already_set();
+        const std::string bytes(buf, static_cast<std::size_t>(len));
+        std::istringstream probe(bytes, std::ios::binary);
+        const StateHeader h = readStateHeader(probe);
+        bp::object out;
+#define EMP_RESTORE(D, K)                                                       \
+        if (out.is_none() && h.dim == D && h.kernel == K::name) {               \
+            std::istringstream is(bytes, std::ios::binary);                     \
+            std::shared_ptr<Solver<D, K>> sv;                                   \
+            {                                                                   \
+                NoGil nogil;                                                    \
+                sv = Solver<D, K>::loadState(is);                               \
+            }                                                                   \
+            out = bp::object(sv);                                               \
+        }
+        EMP_SOLVER_CONFIGURATIONS(EMP_RESTORE)
+#undef EMP_RESTORE
+        if (out.is_none())
+            throw SimulationError("EigenMPM: the saved state is of a " + std::to_string(h.dim) + "D " + h.kernel +
+                                  " solver, which this EigenMPM is not built for");
+        return out;
+    }, bp::arg("state"), "The solver saved as `state` (bytes of Solver.saveState()), of its class.");
     // The shape names in the user's spelling (MpmEngine(shape=...)), each once, in list order.
     bp::list shapes;
 #define EMP_SHAPE(D, K) \

@@ -19,3 +19,7 @@ from .recorders import PlotRecorder, Progress, VTKRecorder
 __all__ = ["MpmEngine", "EigenErosion", "kappaRange", "VelocityBC", "ElasticMaterial", "VTKRecorder",
            "PlotRecorder", "Progress", "callEvery", "criticalTimeStep", "findEngine", "mpmEngines",
            "DemMpmPair", "calibrateDem", "uniaxialTension"]
+
+from . import state as _state  # noqa: E402
+
+_state.install()  # O.save/O.load and O.saveTmp/O.loadTmp carry the EigenMPM state

@@ -15,12 +15,25 @@ from .params import Param, apply, declare, takes, vec3
 
 _registry = {}
 _keys = itertools.count()
+COMMAND_PREFIX = "import eigenmpm.engines as _m; _m._registry["
 
 
 def _register(engine):
     key = next(_keys)
     _registry[key] = engine
-    return f"import eigenmpm.engines as _m; _m._registry[{key}]._action()"
+    return f"{COMMAND_PREFIX}{key}]._action()"
+
+
+def registered(runner):
+    """The object a PyRunner's command calls into (our engine itself, or a callEvery's call),
+    or None for any other engine."""
+    command = getattr(runner, "command", "")
+    if not isinstance(runner, PyRunner) or not command.startswith(COMMAND_PREFIX):
+        return None
+    try:
+        return _registry.get(int(command[len(COMMAND_PREFIX):].split("]", 1)[0]))
+    except ValueError:
+        return None
 
 
 def mpmEngines():
@@ -171,6 +184,7 @@ class MpmEngine(PyRunner):
         self.physics = {}  # label -> attached physics engine (EigenErosion, ...)
         self._materials = {}
         self._started = False
+        self._lastIter = None
 
     # --- specimen -------------------------------------------------------------------------
     def material(self, mat):
@@ -300,6 +314,15 @@ class MpmEngine(PyRunner):
         if not self._started:
             self._attachPhysics()
             self._started = True
+        # O.iter going back behind this solver means the scene was reloaded without its EigenMPM
+        # state (eigenmpm.state): stepping on would continue from a later state, silently wrong.
+        # (Forward skips happen: YADE resumes an iteration after an engine that raised.)
+        if self._lastIter is not None and O.iter <= self._lastIter:
+            raise RuntimeError(f"EigenMPM: MpmEngine {self.label!r} last stepped at iteration "
+                               f"{self._lastIter} (solver step {self.solver.steps}) but YADE is at "
+                               f"iteration {O.iter}: the scene went back without its EigenMPM state "
+                               "(load it with O.load/O.loadTmp after importing eigenmpm, or rebuild it)")
+        self._lastIter = O.iter
         t = O.time
         self.solver.time = t
         for bc in self.bcs.values():
@@ -311,6 +334,11 @@ class MpmEngine(PyRunner):
             for rec in self.recorders:
                 rec.onFailure(self, err)
             raise
+
+    def _restored(self):
+        """After eigenmpm.state restored this engine: materials are keyed by object identity,
+        and the objects are new."""
+        self._materials = {id(mat): (mat, i) for mat, i in self._materials.values()}
 
     # --- diagnostics ----------------------------------------------------------------------
     def kineticEnergy(self):

@@ -85,7 +85,8 @@ class EigenErosion(PyRunner):
     def attach(self, mpm=None):
         """Attaches the erosion stage to the solver of `mpm` (done automatically)."""
         mpm = findEngine(mpm if mpm is not None else self.engine)
-        if self.core is not None and mpm.solver.erosion is self.core:
+        current = mpm.solver.erosion
+        if self.core is not None and current is not None and current.address == self.core.address:
             return mpm
         kappa = self.kappa if self.kappa is not None else self.kappaOverH * mpm.h
         low, high = kappaRange(mpm.h, mpm.dim)

@@ -1,0 +1,176 @@
+"""YADE's save and load carry the EigenMPM state (eigenmpm.state): continuing after
+O.saveTmp/O.loadTmp or O.save/O.load (in a new process) gives bitwise the results of the run
+that was not interrupted, in 2D and 3D, with a crack and while eroding, on 1 and 2 threads; what
+cannot be restored is refused."""
+import functools
+import os
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+from yade import O, pack
+
+import eigenmpm as em
+from eigenmpm.state import StateError
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+
+def plate(dim=2, threads=1, velocity=None, vtk=None):
+    """A small cracked plate pulled apart by tractions, eroding (about 30 points by 300 steps)."""
+    h = 0.002
+    mpm = em.MpmEngine(dim=dim, h=h, thickness=h, threads=threads, label="plate",
+                       domain=((-0.005, -0.005, -0.005), (0.035, 0.025, 0.011)))
+    glass = em.ElasticMaterial(E=72e9, nu=0.22, rho=2440, planeStress=dim == 2)
+    top = 0.006 if dim == 3 else 0
+    mpm.fill(pack.inAlignedBox((0, 0, 0), (0.03, 0.02, top)), glass)
+    if dim == 2:
+        mpm.crack([(-0.001, 0.01, 0), (0.012, 0.01, 0)])
+    else:
+        mpm.crack([(-0.001, 0.01, -0.001), (0.012, 0.01, -0.001), (0.012, 0.01, 0.007), (-0.001, 0.01, 0.007)])
+    mpm.traction(points=pack.inAlignedBox((-1, 0.018, -1), (1, 1, 1)), traction=(0, 14e6, 0))
+    mpm.traction(points=pack.inAlignedBox((-1, -1, -1), (1, 0.002, 1)), traction=(0, -14e6, 0))
+    if velocity is not None:
+        mpm.velocityBC(points=pack.inAlignedBox((0.028, -1, -1), (1, 1, 1)), components="x", velocity=velocity)
+    erosion = em.EigenErosion(engine=mpm, Gc=60, alpha=2, kappaOverH=1.1, iterPeriod=20)
+    engines = [mpm, erosion, em.PlotRecorder(iterPeriod=25)]
+    if vtk:
+        engines.append(em.VTKRecorder(fileName=vtk, iterPeriod=100))
+    O.engines = engines
+    O.dt = 0.4 * mpm.criticalTimeStep()
+    return mpm
+
+
+def state():
+    mpm = em.findEngine("plate")
+    s = mpm.solver
+    return (s.positions(), s.velocities(), s.stress(), s.damage(), s.history(), s.steps, s.time,
+            mpm.physics["erosion"].erodedCount(), mpm.physics["erosion"].dissipatedEnergy(),
+            [tuple(v) for v in mpm.crackVertices()])
+
+
+def same(a, b):
+    for x, y in zip(a, b):
+        if isinstance(x, np.ndarray):
+            assert np.array_equal(x, y)
+        else:
+            assert x == y
+
+
+@pytest.mark.parametrize("dim, threads", [(2, 1), (2, 2), (3, 1)])
+def test_save_tmp_and_load_tmp_continue_bitwise(dim, threads):
+    plate(dim, threads)
+    O.run(150, True)
+    O.saveTmp("mid")
+    O.run(150, True)
+    reference = state()
+    assert reference[7] > 0, "the plate should erode"
+    O.loadTmp("mid")
+    assert O.iter == 150 and em.findEngine("plate").solver.steps == 150
+    O.run(150, True)
+    same(state(), reference)
+
+
+def test_loaded_engines_keep_their_recorders_and_periods(tmp_path):
+    plate(vtk=str(tmp_path / "vtk" / "p-"))
+    O.run(150, True)
+    O.saveTmp("mid")
+    O.run(250, True)
+    files = len(em.findEngine("plate").recorders[0].files)
+    O.loadTmp("mid")
+    O.run(250, True)
+    assert len(em.findEngine("plate").recorders[0].files) == files == 4
+    assert isinstance(O.engines[1], em.EigenErosion) and isinstance(O.engines[2], em.PlotRecorder)
+
+
+def test_save_and_load_in_a_new_process_continue_bitwise(tmp_path):
+    """O.save in one process, O.load in another: the same final state as without stopping."""
+    script = textwrap.dedent(f"""
+        import sys
+        sys.path[:0] = [{os.path.join(ROOT, 'build', 'python')!r}, '/usr/lib/x86_64-linux-gnu/yade-double/py',
+                        {os.path.dirname(os.path.abspath(__file__))!r}]
+        import numpy as np
+        import yade
+        from yade import O
+        import eigenmpm as em
+        import test_save_load as t
+        mode, path = sys.argv[1], sys.argv[2]
+        if mode == "save":
+            t.plate(velocity=t.pull)
+            O.run(150, True)
+            O.save(path + "/scene.yade.bz2")
+        elif mode == "load":
+            O.load(path + "/scene.yade.bz2")
+            O.run(150, True)
+            np.save(path + "/loaded.npy", em.findEngine("plate").solver.positions())
+        else:
+            t.plate(velocity=t.pull)
+            O.run(300, True)
+            np.save(path + "/straight.npy", em.findEngine("plate").solver.positions())
+    """)
+    (tmp_path / "run.py").write_text(script)
+    for mode in ("save", "load", "straight"):
+        r = subprocess.run([sys.executable, str(tmp_path / "run.py"), mode, str(tmp_path)],
+                           capture_output=True, text=True, timeout=300)
+        assert r.returncode == 0, r.stderr[-2000:]
+    assert (tmp_path / "scene.yade.bz2.eigenmpm").exists()
+    assert np.array_equal(np.load(tmp_path / "loaded.npy"), np.load(tmp_path / "straight.npy"))
+
+
+pull = functools.partial(np.multiply, (0.5, 0.0, 0.0))  # velocity(t) = (0.5 t, 0, 0): importable
+
+
+def test_condition_driven_by_a_lambda_is_refused_at_save_time(tmp_path):
+    plate(velocity=lambda t: (0.5 * t, 0, 0))
+    O.run(5, True)
+    with pytest.raises(StateError, match=r"cannot save MpmEngine 'plate'\.bcs\['bc0'\]\.velocity = <function"):
+        O.saveTmp("x")
+    with pytest.raises(StateError, match="importable by name"):
+        O.save(str(tmp_path / "s.yade.bz2"))
+
+
+def test_scene_that_went_back_without_its_state_refuses_to_step():
+    plate()
+    O.run(10, True)
+    em.state._original["saveTmp"](O, "bare")  # YADE's own save: no EigenMPM snapshot
+    O.run(10, True)
+    em.state._original["loadTmp"](O, "bare")  # the old engine objects, at a later state
+    with pytest.raises(RuntimeError, match="went back without its EigenMPM state"):
+        O.run(1, True)
+
+
+def test_load_without_the_state_file_or_with_a_damaged_one_is_refused(tmp_path):
+    plate()
+    O.run(10, True)
+    f = str(tmp_path / "scene.yade.bz2")
+    O.save(f)
+    side = f + ".eigenmpm"
+    data = open(side, "rb").read()
+    os.remove(side)
+    with pytest.raises(StateError, match="keep the two files together"):
+        O.load(f)
+    with open(side, "wb") as out:
+        out.write(data[: len(data) // 2])
+    with pytest.raises(StateError, match="damaged"):
+        O.load(f)
+
+
+def test_saved_solver_state_of_another_version_is_refused():
+    mpm = plate()
+    O.run(5, True)
+    data = bytearray(mpm.solver.saveState())
+    data[8 + len("EigenMPM solver state")] += 1
+    with pytest.raises(RuntimeError, match="format version 2"):
+        em._eigenmpm.solverFromState(bytes(data))
+
+
+def test_scene_without_eigenmpm_engines_saves_and_loads_as_before(tmp_path):
+    O.engines = []
+    f = str(tmp_path / "plain.yade.bz2")
+    O.save(f)
+    assert not os.path.exists(f + ".eigenmpm")
+    O.load(f)
+    O.saveTmp("plain")
+    O.loadTmp("plain")
