@@ -10,6 +10,8 @@ Put the engines in ``O.engines`` beside YADE's own::
     O.engines = [mpm, em.VTKRecorder(fileName='out/bar-', iterPeriod=100),
                  em.PlotRecorder(iterPeriod=10), em.Progress(endIter=10000)]
 """
+from . import checkpoint
+from .checkpoint import Checkpoint
 from .dem import DemMpmPair, calibrate as calibrateDem, uniaxialTension
 from .engines import MpmEngine, VelocityBC, callEvery, criticalTimeStep, findEngine, mpmEngines
 from .fracture import EigenErosion, kappaRange
@@ -18,7 +20,7 @@ from .recorders import PlotRecorder, Progress, VTKRecorder
 
 __all__ = ["MpmEngine", "EigenErosion", "kappaRange", "VelocityBC", "ElasticMaterial", "VTKRecorder",
            "PlotRecorder", "Progress", "callEvery", "criticalTimeStep", "findEngine", "mpmEngines",
-           "DemMpmPair", "calibrateDem", "uniaxialTension"]
+           "DemMpmPair", "calibrateDem", "uniaxialTension", "Checkpoint"]
 
 from . import state as _state  # noqa: E402
 

@@ -174,3 +174,56 @@ def test_scene_without_eigenmpm_engines_saves_and_loads_as_before(tmp_path):
     O.load(f)
     O.saveTmp("plain")
     O.loadTmp("plain")
+
+
+def test_checkpoints_resume_to_the_same_end_state(tmp_path):
+    """A run checkpointed every 100 iterations, resumed in a new process from its newest
+    checkpoint, ends where the uninterrupted run ends; only the last `keep` are kept, and an
+    unfinished (.tmp) checkpoint is never taken."""
+    script = textwrap.dedent(f"""
+        import sys
+        sys.path[:0] = [{os.path.join(ROOT, 'build', 'python')!r}, '/usr/lib/x86_64-linux-gnu/yade-double/py',
+                        {os.path.dirname(os.path.abspath(__file__))!r}]
+        import numpy as np
+        import yade
+        from yade import O
+        import eigenmpm as em
+        import test_save_load as t
+        mode, path = sys.argv[1], sys.argv[2]
+        if mode == "first":
+            t.plate()
+            O.engines = [em.Checkpoint(directory=path + "/ckpt", iterPeriod=100, keep=2)] + list(O.engines)
+            O.run(350, True)
+        elif mode == "resume":
+            em.checkpoint.resume(path + "/ckpt")
+            O.run(400 - O.iter, True)
+            np.save(path + "/resumed.npy", em.findEngine("plate").solver.positions())
+        else:
+            t.plate()
+            O.run(400, True)
+            np.save(path + "/straight.npy", em.findEngine("plate").solver.positions())
+    """)
+    (tmp_path / "run.py").write_text(script)
+    r = subprocess.run([sys.executable, str(tmp_path / "run.py"), "first", str(tmp_path)],
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr[-2000:]
+    ckpt = tmp_path / "ckpt"
+    assert sorted(os.listdir(ckpt)) == ["checkpoint-000000200", "checkpoint-000000300"]
+    (ckpt / "checkpoint-000000340.tmp").mkdir()  # a save that was interrupted
+    assert em.checkpoint.latest(str(ckpt)).endswith("checkpoint-000000300")
+    for mode in ("resume", "straight"):
+        r = subprocess.run([sys.executable, str(tmp_path / "run.py"), mode, str(tmp_path)],
+                           capture_output=True, text=True, timeout=300)
+        assert r.returncode == 0, r.stderr[-2000:]
+    assert np.array_equal(np.load(tmp_path / "resumed.npy"), np.load(tmp_path / "straight.npy"))
+
+
+def test_checkpoint_must_come_first_and_resume_needs_a_checkpoint(tmp_path):
+    plate()
+    O.engines = list(O.engines) + [em.Checkpoint(directory=str(tmp_path), iterPeriod=5)]
+    with pytest.raises(RuntimeError, match="must be the first engine"):
+        O.run(12, True)
+    with pytest.raises(FileNotFoundError, match="no complete checkpoint"):
+        em.checkpoint.resume(str(tmp_path / "none"))
+    with pytest.raises(ValueError, match="iterPeriod or wallPeriod"):
+        em.Checkpoint(directory=str(tmp_path))
