@@ -9,7 +9,7 @@ other handle get them):
   runner): each solver's whole state as bytes (``Solver::saveState``: points and all their
   fields, grid, materials, conditions, tractions, cracks at their current position, erosion
   state), and the Python state of the engines (parameters, conditions, recorders and their
-  series, crack-tip histories), pickled. ``O.save(f)`` writes it beside the scene as
+  series, crack-tip histories), pickled, and ``yade.plot``'s data and plots. ``O.save(f)`` writes it beside the scene as
   ``f + '.eigenmpm'`` (written to a temporary file, then renamed); ``O.saveTmp(mark)`` keeps it
   in memory. A marker in ``O.tags`` records that the scene has a snapshot.
 - loading puts the engines back in their places in ``O.engines``, with their state and YADE's
@@ -158,8 +158,15 @@ def snapshot():
         raise
     head = json.dumps({"version": VERSION, "engines": [i for i, _ in entries]}).encode()
     out = io.BytesIO()
-    pickle.dump((head, [b for _, b in solvers], buf.getvalue()), out, protocol=pickle.HIGHEST_PROTOCOL)
+    pickle.dump((head, [b for _, b in solvers], buf.getvalue(), _plotState()), out,
+                protocol=pickle.HIGHEST_PROTOCOL)
     return out.getvalue()
+
+
+def _plotState():
+    """yade.plot's series (PlotRecorder fills them; YADE's save does not keep them)."""
+    from yade import plot
+    return {"data": {k: list(v) for k, v in plot.data.items()}, "plots": dict(plot.plots)}
 
 
 def restore(data):
@@ -167,7 +174,7 @@ def restore(data):
     places after YADE's load), with their state and YADE's periodic counters."""
     from .engines import _register
     try:
-        head, solverBytes, table = pickle.loads(data)
+        head, solverBytes, table, plotState = pickle.loads(data)
         meta = json.loads(head.decode())
     except Exception as err:
         raise StateError(f"EigenMPM: the saved EigenMPM state is damaged ({err})") from None
@@ -205,6 +212,9 @@ def restore(data):
             obj.command = _register(state)
         engines[i] = obj
     O.engines = engines
+    from yade import plot
+    plot.data = {k: list(v) for k, v in plotState["data"].items()}
+    plot.plots = dict(plotState["plots"])
 
 
 class _Lazy(dict):

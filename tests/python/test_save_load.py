@@ -74,6 +74,8 @@ def test_save_tmp_and_load_tmp_continue_bitwise(dim, threads):
 
 
 def test_loaded_engines_keep_their_recorders_and_periods(tmp_path):
+    from yade import plot
+    plot.reset()
     plate(vtk=str(tmp_path / "vtk" / "p-"))
     O.run(150, True)
     O.saveTmp("mid")
@@ -82,6 +84,7 @@ def test_loaded_engines_keep_their_recorders_and_periods(tmp_path):
     O.loadTmp("mid")
     O.run(250, True)
     assert len(em.findEngine("plate").recorders[0].files) == files == 4
+    assert len(plot.data["t"]) == 16 and plot.data["plate_Ek"][-1] > 0  # yade.plot's series too
     assert isinstance(O.engines[1], em.EigenErosion) and isinstance(O.engines[2], em.PlotRecorder)
 
 
