@@ -38,7 +38,7 @@ from yade import O, pack, plot
 
 import eigenmpm as em
 from eigenmpm import plots
-from eigenmpm.cli import runSteps, scriptArgs
+from eigenmpm.cli import finish, runSteps, scriptArgs
 from eigenmpm.fracture import linked
 
 DEFAULTS = dict(h_mm=0.25, ppc=2, shape="uGIMP", kappaOverH=1.1, alpha=2.0, endTime_us=80.0, dt_us=0.01,
@@ -105,7 +105,7 @@ def main(argv):
                  em.Progress(endIter=steps, realPeriod=20)]
     X0 = mpm.solver.positions().copy()
     start = time.time()
-    stopped = runSteps(steps)  # on an error: summary and figures up to the stop
+    end = runSteps(steps)  # Ctrl-C, SIGTERM or a solver error: outputs up to the stop, then finish()
     steps = mpm.solver.steps
     wall = time.time() - start
     n = mpm.solver.numPoints
@@ -120,7 +120,7 @@ def main(argv):
     summary.update(particles=n, steps=steps, wall_time_s=wall, particle_steps_per_s=n * steps / wall,
                    elastic_energy_J=mpm.elasticEnergy(), kinetic_energy_J=mpm.kineticEnergy(),
                    tips_at_end=len(crack.history[-1][4]) if crack.history else 0,
-                   parameters=o, quick=quick, stopped_early=stopped)
+                   parameters=o, quick=quick, **end.summary())
     with open(os.path.join(out, "summary.json"), "w") as f:
         json.dump(summary, f, indent=2)
     eroded = mpm.solver.positions()[mpm.solver.damage() <= 0]
@@ -137,6 +137,7 @@ def main(argv):
                                                   (3160, "Rayleigh speed ~3160 m/s")))
     print(json.dumps({k: v for k, v in summary.items() if k != "parameters"}, indent=2))
     print("outputs in", out)
+    finish(end, out)
     return summary
 
 

@@ -40,7 +40,7 @@ from yade import O, pack
 
 import eigenmpm as em
 from eigenmpm import dem
-from eigenmpm.cli import scriptArgs
+from eigenmpm.cli import finish, scriptArgs
 
 DEFAULTS = dict(h_mm=5.0, radius_mm=3.0, layers=3, model="cpm", calibrate=1, velocity_m_s=0.02,
                 rampTime_ms=1.0, endDisplacement_mm=0.4, dtFraction=0.8, demDamping=0.0, alpha=1.5,
@@ -81,9 +81,10 @@ def main(argv):
     pair = build(o)
     title = (f"notched beam, 3-point bending: MPM h = {o['h_mm']:g} mm, DEM {o['model'].upper()} "
              f"r = {o['radius_mm']:g} mm x {pair.layers} layers")
-    summary = dem.runToDisplacement(pair, out, "load", o["endDisplacement_mm"] * 1e-3, o["velocity_m_s"],
-                                    o["rampTime_ms"] * 1e-3, o["dtFraction"], title=title, sign=-1.0,
-                                    extra=dict(parameters=o, quick=quick), cpu0=cpu0)
+    summary, end = dem.runToDisplacement(pair, out, "load", o["endDisplacement_mm"] * 1e-3, o["velocity_m_s"],
+                                         o["rampTime_ms"] * 1e-3, o["dtFraction"], title=title, sign=-1.0,
+                                         extra=dict(parameters=o, quick=quick), cpu0=cpu0)
+    finish(end, out)
     return summary
 
 

@@ -82,7 +82,7 @@ from yade import O, pack, plot
 
 import eigenmpm as em
 from eigenmpm import plots
-from eigenmpm.cli import runSteps, scriptArgs
+from eigenmpm.cli import finish, runSteps, scriptArgs
 from eigenmpm.fracture import linked
 from eigenmpm.ramp import rampDisplacement
 
@@ -204,11 +204,9 @@ def main(argv):
     O.engines = [mpm, crack, em.PlotRecorder(iterPeriod=crack.iterPeriod),
                  em.callEvery(watch, iterPeriod=crack.iterPeriod), vtk, em.Progress(endIter=steps, realPeriod=20)]
     start = time.time()
-    stopped = runSteps(steps)  # on an error: summary and figures up to the stop
+    end = runSteps(steps)  # Ctrl-C, SIGTERM or a solver error: outputs up to the stop, then finish()
     wall = time.time() - start
     steps = mpm.solver.steps
-    if O.iter % vtk.iterPeriod:
-        vtk.write(mpm)  # the final state
     n = mpm.solver.numPoints
     summary = analyse(o, X0, crack.core.events(), kappa)
     cs = crack.summary()
@@ -221,7 +219,7 @@ def main(argv):
                    critical_dt_s=mpm.criticalTimeStep(),
                    max_point_speed_m_s=float(np.max(np.linalg.norm(mpm.solver.velocities(), axis=1))),
                    parameters=o, quick=quick)
-    summary["stopped_early"] = stopped
+    summary.update(end.summary())
     with open(os.path.join(out, "summary.json"), "w") as f:
         json.dump(summary, f, indent=2)
     plots.damageMap(mpm, os.path.join(out, "damage.png"),
@@ -232,6 +230,7 @@ def main(argv):
                  ylabel=f"force (N, thickness {h * 1e3:g} mm)", title="John-Shah: reactions")
     print(json.dumps({k: v for k, v in summary.items() if k != "parameters"}, indent=2))
     print("outputs in", out)
+    finish(end, out)
     return summary
 
 

@@ -89,7 +89,7 @@ from yade import O, pack, plot
 
 import eigenmpm as em
 from eigenmpm import plots
-from eigenmpm.cli import runSteps, scriptArgs
+from eigenmpm.cli import finish, runSteps, scriptArgs
 from eigenmpm.fracture import linked
 
 DEFAULTS = dict(h_mm=0.5, kappaOverH=1.15, alpha=2.0, endTime_us=110.0, dt_us=0.01, v0_m_s=16.5,
@@ -242,11 +242,9 @@ def main(argv):
         engines.append(em.callEvery(watch, iterPeriod=crack.iterPeriod))
     O.engines = engines
     start = time.time()
-    stopped = runSteps(steps)  # on an error: summary and figures up to the stop
+    end = runSteps(steps)  # Ctrl-C, SIGTERM or a solver error: outputs up to the stop, then finish()
     wall = time.time() - start
     steps = mpm.solver.steps
-    if O.iter % vtk.iterPeriod:
-        vtk.write(mpm)  # the final state
     n = mpm.solver.numPoints
     res, path, tEr, speedT, speed = analyse(o, X0, crack.core.events(), spacing, kappa)
     s = crack.summary()
@@ -259,7 +257,7 @@ def main(argv):
                    particle_steps_per_s=n * steps / wall, dt_s=O.dt, critical_dt_s=mpm.criticalTimeStep(),
                    elastic_energy_J=mpm.elasticEnergy(), kinetic_energy_J=mpm.kineticEnergy(),
                    parameters=o, quick=quick)
-    summary["stopped_early"] = stopped
+    summary.update(end.summary())
     with open(os.path.join(out, "summary.json"), "w") as f:
         json.dump(summary, f, indent=2)
     with open(os.path.join(out, "crack_path.csv"), "w") as f:
@@ -278,6 +276,7 @@ def main(argv):
                  ylabel="energy (J per m thickness)", title="Kalthoff-Winkler: energies")
     print(json.dumps({k: v for k, v in summary.items() if k != "parameters"}, indent=2))
     print("outputs in", out)
+    finish(end, out)
     return summary
 
 

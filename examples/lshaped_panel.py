@@ -37,7 +37,7 @@ from yade import O, pack, plot
 
 import eigenmpm as em
 from eigenmpm import plots
-from eigenmpm.cli import runSteps, scriptArgs
+from eigenmpm.cli import finish, runSteps, scriptArgs
 from eigenmpm.ramp import rampDisplacement, rampTimeTo
 
 DEFAULTS = dict(h_mm=5.0, ppc=2, shape="uGIMP", alpha=1.5, kappaOverH=1.1, velocity_m_s=0.01,
@@ -96,7 +96,7 @@ def main(argv):
                  em.VTKRecorder(fileName=os.path.join(out, "vtk", "panel-"), iterPeriod=max(1, steps // 20)),
                  em.Progress(endIter=steps, realPeriod=30)]
     start = time.time()
-    stopped = runSteps(steps)  # on an error: summary and figures up to the stop
+    end = runSteps(steps)  # Ctrl-C, SIGTERM or a solver error: outputs up to the stop, then finish()
     steps = mpm.solver.steps
     wall = time.time() - start
     tc = np.array([c[0] for c in curve])
@@ -117,7 +117,7 @@ def main(argv):
                    initiation_load_kN=None if i_init is None else float(Fs[i_init]) / 1e3,
                    initiation_displacement_mm=None if i_init is None else float(u[i_init]) * 1e3,
                    peak_load_raw_kN=float(np.max(F)) / 1e3, particles=n, steps=steps, wall_time_s=wall,
-                   particle_steps_per_s=n * steps / wall, dt_s=O.dt, parameters=o, quick=quick, stopped_early=stopped)
+                   particle_steps_per_s=n * steps / wall, dt_s=O.dt, parameters=o, quick=quick, **end.summary())
     summary.update({k: v for k, v in crack.summary().items() if k != "crack_tips_m"})
     with open(os.path.join(out, "summary.json"), "w") as f:
         json.dump(summary, f, indent=2)
@@ -157,6 +157,7 @@ def main(argv):
     plots.damageMap(mpm, os.path.join(out, "damage.png"))
     print(json.dumps({k: v for k, v in summary.items() if k != "parameters"}, indent=2))
     print("outputs in", out)
+    finish(end, out)
     return summary
 
 

@@ -206,7 +206,9 @@ def configurations(sceneName, knobArgs):
 def runOne(script, outDir, args, quick=False, timeout=None, rerun=False, yade="yade"):
     """Runs one configuration in its own YADE process; returns its record (cmd, returncode,
     cpu_s, wall_s, load_avg, summary). Reuses outDir/run.json made by the same command with the
-    same script (its SHA-1; the commit is recorded too)."""
+    same script (its SHA-1; the commit is recorded too) when that run completed or a solver error
+    stopped it (a repeatable result), not when it was interrupted or crashed. A run stopped early
+    exits non-zero but writes its summary (stopped_early), which is kept."""
     import hashlib
     cmd = [yade, "-n", "-x", os.path.join(ROOT, script), "--out", outDir] + (["--quick"] if quick else []) + args
     with open(os.path.join(ROOT, script), "rb") as f:
@@ -215,7 +217,9 @@ def runOne(script, outDir, args, quick=False, timeout=None, rerun=False, yade="y
     if not rerun and os.path.exists(record):
         with open(record) as f:
             old = json.load(f)
-        if old.get("cmd") == cmd and old.get("returncode") == 0 and old.get("script_sha1") == digest:
+        stopped = (old.get("summary") or {}).get("stopped_early")
+        final = old.get("returncode") == 0 or (stopped is not None and stopped != "interrupted")
+        if old.get("cmd") == cmd and final and old.get("script_sha1") == digest:
             old["reused"] = True
             return old
     os.makedirs(outDir, exist_ok=True)
@@ -223,7 +227,7 @@ def runOne(script, outDir, args, quick=False, timeout=None, rerun=False, yade="y
     env["PYTHONPATH"] = os.pathsep.join(filter(None, [os.path.join(ROOT, "build", "python"), env.get("PYTHONPATH")]))
     load = os.getloadavg()[0]
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    start = time.perf_counter()
+    started, start = time.time(), time.perf_counter()
     try:
         res = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=timeout,
                              stdin=subprocess.DEVNULL)
@@ -237,7 +241,9 @@ def runOne(script, outDir, args, quick=False, timeout=None, rerun=False, yade="y
         f.write(log if isinstance(log, str) else log.decode(errors="replace"))
     summary = None
     path = os.path.join(outDir, "summary.json")
-    if code == 0 and os.path.exists(path):
+    # after a failure, only a summary this run wrote (a stopped run writes one; a crash may leave
+    # an older one)
+    if os.path.exists(path) and (code == 0 or os.path.getmtime(path) >= started):
         with open(path) as f:
             summary = json.load(f)
     out = dict(cmd=cmd, returncode=code, cpu_s=cpu, wall_s=wall, load_avg=load, summary=summary, reused=False,
@@ -455,12 +461,12 @@ def combine(dirs, out, cost=None, log=print, command=None):
 
 
 def _status(rec, s):
+    if s and s.get("stopped_early"):
+        return "stopped early"
     if rec["returncode"] != 0:
         return f"failed ({rec['returncode']})"
     if not s:
         return "no summary"
-    if s.get("stopped_early"):
-        return "stopped early"
     return "ok"
 
 

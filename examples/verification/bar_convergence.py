@@ -15,20 +15,25 @@ import sys
 # Under `yade -x` __file__ names yade itself; sys.argv[0] is this script.
 sys.path.insert(0, os.path.dirname(os.path.abspath(sys.argv[0])))
 import vibrating_bar  # noqa: E402
+from eigenmpm.cli import finish  # noqa: E402
 
 
 def study(cells=(10, 20, 40, 80, 160), shapes=("uGIMP", "linear")):
+    """The rows of the table, and how the last run ended: a run stopped early (Ctrl-C, a solver
+    error) ends the study with the rows completed before it."""
     rows = []
     for shape in shapes:
         prev = None
         for c in cells:
-            s, _ = vibrating_bar.run(cells=c, shape=shape)
+            s, _, end = vibrating_bar.run(cells=c, shape=shape)
+            if end.early:
+                return rows, end
             order = math.log(prev["rel_error"] / s["rel_error"]) / math.log(c / prev["cells_along_bar"]) \
                 if prev else float("nan")
             rows.append(dict(shape=shape, cells=c, h_m=s["h_m"], particles=s["particles"], steps=s["steps"],
                              rel_error=s["rel_error"], order=order, wall_time_s=s["wall_time_s"]))
             prev = s
-    return rows
+    return rows, end
 
 
 def main(argv):
@@ -42,13 +47,15 @@ def main(argv):
         else:
             raise SystemExit(f"bar_convergence: unknown argument {a}")
     os.makedirs(out, exist_ok=True)
-    rows = study(cells)
+    rows, end = study(cells)
     lines = ["| shape | cells along L | h (m) | points | steps | rel. error of omega1 | observed order |",
              "|---|---|---|---|---|---|---|"]
     for r in rows:
         order = "" if math.isnan(r["order"]) else f"{r['order']:.2f}"
         lines.append(f"| {r['shape']} | {r['cells']} | {r['h_m']:.5g} | {r['particles']} | {r['steps']} | "
                      f"{r['rel_error']:.3e} | {order} |")
+    if end.early:
+        lines.append(f"\nIncomplete: the run at the next resolution {end.note()}.")
     table = "\n".join(lines)
     print(table)
     with open(os.path.join(out, "convergence.md"), "w") as f:
@@ -63,8 +70,9 @@ def main(argv):
         rs = [r for r in rows if r["shape"] == shape]
         ax.loglog([r["h_m"] for r in rs], [r["rel_error"] for r in rs], "o-", label=shape)
     h = [r["h_m"] for r in rows if r["shape"] == "uGIMP"]
-    e0 = [r["rel_error"] for r in rows if r["shape"] == "uGIMP"][0]
-    ax.loglog(h, [e0 * (x / h[0]) ** 2 for x in h], "k--", lw=0.8, label="slope 2")
+    if h:
+        e0 = [r["rel_error"] for r in rows if r["shape"] == "uGIMP"][0]
+        ax.loglog(h, [e0 * (x / h[0]) ** 2 for x in h], "k--", lw=0.8, label="slope 2")
     ax.set_xlabel("cell size h (m), bar length 1 m")
     ax.set_ylabel("relative error of omega1")
     ax.set_title("Vibrating bar: convergence under refinement")
@@ -72,6 +80,7 @@ def main(argv):
     fig.tight_layout()
     fig.savefig(os.path.join(out, "convergence.png"), dpi=120)
     print("written:", out)
+    finish(end, out)
 
 
 if __name__ == "__main__":

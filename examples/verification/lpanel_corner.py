@@ -24,7 +24,7 @@ import numpy as np
 from yade import O, pack
 
 import eigenmpm as em
-from eigenmpm.cli import scriptArgs
+from eigenmpm.cli import finish, runSteps, scriptArgs
 from eigenmpm.ramp import rampDisplacement, rampTimeTo
 
 DEFAULTS = dict(h_mm=5.0, alpha=1.5, kappaOverH=1.1, u_mm=0.2, E=25.85e9, nu=0.18, rho=2500.0, Gc=89.0)
@@ -48,12 +48,14 @@ def main(argv):
     O.dt = 0.8 * mpm.criticalTimeStep()
     O.engines = [mpm, crack]
     start = time.time()
-    O.run(int(round(rampTimeTo(o["u_mm"] * 1e-3, v, t0) / O.dt)), True)
-    # the load averaged over the last 0.2 ms (the small vibrations left by the ramp)
-    F = []
-    for _ in range(int(0.2e-3 / O.dt)):
-        O.run(1, True)
-        F.append(load.reaction[1])
+    end = runSteps(int(round(rampTimeTo(o["u_mm"] * 1e-3, v, t0) / O.dt)))
+    # the load averaged over the last 0.2 ms (the small vibrations left by the ramp); the
+    # recorder runs after the solver in each step
+    F = [load.reaction[1]]
+    if not end.early:
+        F = []
+        O.engines = O.engines + [em.callEvery(lambda: F.append(load.reaction[1]))]
+        end = runSteps(int(0.2e-3 / O.dt))
     F = float(np.mean(F))
     x = mpm.solver.positions()[:, :2]
     near = np.nonzero(np.hypot(x[:, 0] - a, x[:, 1] - a) < 3 * h)[0]
@@ -76,10 +78,11 @@ def main(argv):
                    critical_displacement_mm=u * 1e3 * Fc / F,
                    psi_slope_3_30mm=slope, paper_critical_load_kN=PAPER.get((o["h_mm"], o["alpha"], o["kappaOverH"])),
                    particles=mpm.solver.numPoints, steps=mpm.solver.steps, wall_time_s=time.time() - start,
-                   parameters=o)
+                   parameters=o, **end.summary())
     with open(os.path.join(out, "summary.json"), "w") as f:
         json.dump(summary, f, indent=2)
     print(json.dumps({k: v for k, v in summary.items() if k != "parameters"}, indent=2))
+    finish(end, out)
     return summary
 
 

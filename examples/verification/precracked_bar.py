@@ -38,7 +38,7 @@ import numpy as np
 from yade import O, pack
 
 import eigenmpm as em
-from eigenmpm.cli import scriptArgs
+from eigenmpm.cli import finish, runSteps, scriptArgs
 from eigenmpm.ramp import rampDisplacement
 
 DEFAULTS = dict(cells=40, ppc=2, transits=6.0, rampTransits=2.0, dtFraction=0.3, velocity=1.0, plot=True)
@@ -47,7 +47,7 @@ QUICK = dict(cells=20)
 
 def pull(cracked, cells=40, ppc=2, transits=6.0, rampTransits=2.0, dtFraction=0.3, velocity=1.0, L=0.2, H=0.05,
          E=1e8, nu=0.2, rho=1000.0):
-    """Runs one bar; returns its measurements and final state."""
+    """Runs one bar; returns its measurements, its final state and how its run ended ("end")."""
     O.reset()
     h = L / cells
     mpm = em.MpmEngine(dim=2, h=h, ppc=ppc, label="bar")
@@ -78,8 +78,9 @@ def pull(cracked, cells=40, ppc=2, transits=6.0, rampTransits=2.0, dtFraction=0.
     O.dt = dtFraction * mpm.criticalTimeStep()
     steps = int(math.ceil(duration / O.dt))
     start = time.time()
-    O.run(steps, True)
+    end = runSteps(steps)
     wall = time.time() - start
+    steps = mpm.solver.steps
     x = mpm.solver.positions()
     sigma = mpm.solver.stress()
     t = mpm.solver.time
@@ -96,61 +97,67 @@ def pull(cracked, cells=40, ppc=2, transits=6.0, rampTransits=2.0, dtFraction=0.
         "stress_expected_Pa": E / (1 - nu * nu) * pulled / L,
         "particles": int(len(ids)), "steps": steps, "wall_time_s": wall, "time_s": t,
         "twins": int(mpm.solver.numTwins), "h_m": h, "ramp_time_s": t0, "wave_speed_m_s": c,
-        "dt_s": O.dt, "crack": crack,
+        "dt_s": O.dt, "crack": crack, "end": end,
         "state": (x, sigma[:, 0, 0].copy(), mpm.crackVertices(0) if cracked else None),
     }
 
 
 def run(cells=40, ppc=2, transits=6.0, rampTransits=2.0, dtFraction=0.3, velocity=1.0, **_):
-    """Pulls the cracked and the intact bar; returns the summary and the final states."""
+    """Pulls the cracked and the intact bar; returns the summary, the final states and how the
+    runs ended (eigenmpm.cli.RunEnd). When the cracked bar's run stops early (Ctrl-C, a solver
+    error) the intact bar is not run and its values are None."""
     kw = dict(cells=cells, ppc=ppc, transits=transits, rampTransits=rampTransits, dtFraction=dtFraction,
               velocity=velocity)
     cut = pull(True, **kw)
-    whole = pull(False, **kw)
-    wall = cut["wall_time_s"] + whole["wall_time_s"]
+    whole = pull(False, **kw) if not cut["end"].early else None
+    end = whole["end"] if whole else cut["end"]
+    intact = (lambda key: whole[key]) if whole else (lambda key: None)  # noqa: E731
+    bars = [cut] + ([whole] if whole else [])
+    wall = sum(b["wall_time_s"] for b in bars)
     summary = {
         "gap_m": cut["gap_m"], "gap_expected_m": cut["gap_expected_m"],
         "gap_rel_error": abs(cut["gap_m"] - cut["gap_expected_m"]) / cut["gap_expected_m"],
-        "gap_intact_m": whole["gap_m"],
-        "reaction_cracked_N": cut["reaction_N"], "reaction_intact_N": whole["reaction_N"],
-        "reaction_ratio": abs(cut["reaction_N"]) / abs(whole["reaction_N"]),
+        "gap_intact_m": intact("gap_m"),
+        "reaction_cracked_N": cut["reaction_N"], "reaction_intact_N": intact("reaction_N"),
+        "reaction_ratio": abs(cut["reaction_N"]) / abs(whole["reaction_N"]) if whole else None,
         "stress_at_crack_cracked_Pa": cut["stress_at_crack_Pa"],
-        "stress_at_crack_intact_Pa": whole["stress_at_crack_Pa"],
-        "stress_intact_expected_Pa": whole["stress_expected_Pa"],
-        "stress_ratio": abs(cut["stress_at_crack_Pa"]) / abs(whole["stress_at_crack_Pa"]),
+        "stress_at_crack_intact_Pa": intact("stress_at_crack_Pa"),
+        "stress_intact_expected_Pa": intact("stress_expected_Pa"),
+        "stress_ratio": abs(cut["stress_at_crack_Pa"]) / abs(whole["stress_at_crack_Pa"]) if whole else None,
         "particles": cut["particles"], "steps": cut["steps"], "wall_time_s": wall,
-        "particle_steps_per_s": (cut["particles"] * cut["steps"] + whole["particles"] * whole["steps"]) / wall
-        if wall > 0 else float("nan"),
+        "particle_steps_per_s": sum(b["particles"] * b["steps"] for b in bars) / wall if wall > 0 else float("nan"),
         "twins": cut["twins"], "h_m": cut["h_m"], "cells_along_bar": cells, "ppc": ppc, "dt_s": cut["dt_s"],
         "duration_s": cut["time_s"], "ramp_time_s": cut["ramp_time_s"], "velocity_m_s": velocity,
         "wave_speed_m_s": cut["wave_speed_m_s"], "crack_vertices_initial_m": [list(v) for v in cut["crack"]],
+        **end.summary(),
     }
-    return summary, (cut["state"], whole["state"])
+    return summary, (cut["state"], intact("state")), end
 
 
 def plot(out, states, summary):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    (xc, sc, crack), (xi, si, _) = states
+    (xc, sc, crack), (xi, si, _) = states[0], states[1] or (None, None, None)
     offset = -0.08  # the intact bar is drawn below the cracked one
-    vmax = max(np.abs(si).max(), 1.0)
+    vmax = max(np.abs(si if si is not None else sc).max(), 1.0)
     fig, ax = plt.subplots(figsize=(8, 4.2))
     size = max(0.5, 6e3 / len(xc))
     ax.scatter(1e3 * xc[:, 0], 1e3 * xc[:, 1], c=sc, s=size, marker="s", cmap="coolwarm", vmin=-vmax, vmax=vmax,
                linewidths=0)
     art = ax.scatter(1e3 * xi[:, 0], 1e3 * (xi[:, 1] + offset), c=si, s=size, marker="s", cmap="coolwarm",
-                     vmin=-vmax, vmax=vmax, linewidths=0)
+                     vmin=-vmax, vmax=vmax, linewidths=0) if xi is not None else None
     if crack:
         ax.plot([1e3 * v[0] for v in crack], [1e3 * v[1] for v in crack], "k--", lw=0.8, label="crack (phantom nodes)")
         ax.legend(loc="upper right", fontsize=8)
     ax.annotate(f"cracked: gap {1e3 * summary['gap_m']:.2f} mm (expected {1e3 * summary['gap_expected_m']:.2f}), "
                 f"sigma_xx at crack {summary['stress_at_crack_cracked_Pa'] / 1e3:.2g} kPa",
                 (1e3 * xc[:, 0].min(), 1e3 * xc[:, 1].max() + 4), fontsize=8)
-    ax.annotate(f"intact: sigma_xx at mid-length {summary['stress_at_crack_intact_Pa'] / 1e6:.2f} MPa "
-                f"(closed form {summary['stress_intact_expected_Pa'] / 1e6:.2f})",
-                (1e3 * xi[:, 0].min(), 1e3 * (xi[:, 1].max() + offset) + 4), fontsize=8)
-    fig.colorbar(art, ax=ax, label="sigma_xx (Pa)", shrink=0.8)
+    if xi is not None:
+        ax.annotate(f"intact: sigma_xx at mid-length {summary['stress_at_crack_intact_Pa'] / 1e6:.2f} MPa "
+                    f"(closed form {summary['stress_intact_expected_Pa'] / 1e6:.2f})",
+                    (1e3 * xi[:, 0].min(), 1e3 * (xi[:, 1].max() + offset) + 4), fontsize=8)
+    fig.colorbar(art or ax.collections[0], ax=ax, label="sigma_xx (Pa)", shrink=0.8)
     ax.set_aspect("equal")
     ax.set_xlabel("x (mm)")
     ax.set_ylabel("y (mm)")
@@ -165,7 +172,7 @@ def plot(out, states, summary):
 def main(argv):
     opts, out, _ = scriptArgs("precracked_bar", DEFAULTS, QUICK, argv)
     os.makedirs(out, exist_ok=True)
-    summary, states = run(**opts)
+    summary, states, end = run(**opts)
     path = os.path.join(out, "summary.json")
     with open(path, "w") as f:
         json.dump(summary, f, indent=2)
@@ -173,6 +180,7 @@ def main(argv):
     if opts["plot"]:
         print("plot:", plot(out, states, summary))
     print("summary:", path)
+    finish(end, out)
     return summary
 
 

@@ -24,7 +24,7 @@ import numpy as np
 from yade import O, pack
 
 import eigenmpm as em
-from eigenmpm.cli import scriptArgs
+from eigenmpm.cli import finish, runSteps, scriptArgs
 
 
 DEFAULTS = dict(cells=80, shape="uGIMP", ppc=2, periods=3.0, dtFraction=0.5, plot=True)
@@ -33,7 +33,8 @@ QUICK = dict(cells=20)
 
 def run(cells=80, shape="uGIMP", ppc=2, periods=3.0, dtFraction=0.5, L=1.0, E=1e7, rho=1000.0, v0=1e-3,
         **_):
-    """Runs the bar with `cells` cells along its length; returns the summary and the time series."""
+    """Runs the bar with `cells` cells along its length; returns the summary, the time series and
+    how the run ended (eigenmpm.cli.RunEnd: a stopped run has the series up to the stop)."""
     O.reset()
     h = L / cells
     height = 4 * h
@@ -62,8 +63,9 @@ def run(cells=80, shape="uGIMP", ppc=2, periods=3.0, dtFraction=0.5, L=1.0, E=1e
     steps = int(math.ceil(periods * 2 * math.pi / omega / O.dt))
     record()
     start = time.time()
-    O.run(steps, True)
+    end = runSteps(steps)
     wall = time.time() - start
+    steps = mpm.solver.steps
     t, q, utip = (np.array(c) for c in zip(*series))
     up = [t[i] - q[i] * (t[i + 1] - t[i]) / (q[i + 1] - q[i])
           for i in range(len(q) - 1) if q[i] < 0 <= q[i + 1]]
@@ -72,16 +74,16 @@ def run(cells=80, shape="uGIMP", ppc=2, periods=3.0, dtFraction=0.5, L=1.0, E=1e
     crossings = sorted(up + down)
     # Zero crossings of a sine are half a period apart; q(0) = 0 is the first.
     halfPeriods = np.diff([0.0] + crossings)
-    omegaNum = math.pi / float(np.mean(halfPeriods))
+    omegaNum = math.pi / float(np.mean(halfPeriods)) if crossings else None  # none in a run stopped early
     summary = {
         "omega_numeric": omegaNum, "omega_analytic": omega,
-        "rel_error": abs(omegaNum - omega) / omega,
+        "rel_error": abs(omegaNum - omega) / omega if omegaNum else None,
         "particles": int(len(ids)), "steps": steps, "wall_time_s": wall,
         "particle_steps_per_s": len(ids) * steps / wall if wall > 0 else float("nan"),
         "cells_along_bar": cells, "h_m": h, "shape": shape, "ppc": ppc, "dt_s": O.dt,
-        "dt_fraction_of_critical": dtFraction, "periods": periods,
+        "dt_fraction_of_critical": dtFraction, "periods": periods, **end.summary(),
     }
-    return summary, (t, q, utip, v0, omega, float(np.mean(phi[tip])))
+    return summary, (t, q, utip, v0, omega, float(np.mean(phi[tip]))), end
 
 
 def plot(out, series):
@@ -107,7 +109,7 @@ def plot(out, series):
 def main(argv):
     opts, out, _ = scriptArgs("vibrating_bar", DEFAULTS, QUICK, argv)
     os.makedirs(out, exist_ok=True)
-    summary, series = run(**opts)
+    summary, series, end = run(**opts)
     path = os.path.join(out, "summary.json")
     with open(path, "w") as f:
         json.dump(summary, f, indent=2)
@@ -115,6 +117,7 @@ def main(argv):
     if opts["plot"]:
         print("plot:", plot(out, series))
     print("summary:", path)
+    finish(end, out)
     return summary
 
 

@@ -4,9 +4,18 @@ parameter tables of ``yade-batch`` (``readParamsFromTable``).
 Precedence, lowest first: the script's defaults, its quick-mode values (``--quick`` or a table
 column ``quick`` set to 1), a yade-batch table line, then ``name=value`` on the command line.
 Under yade-batch the output goes to ``DIR/<description of the table line>``.
+
+A run and its end (:func:`runSteps`, :func:`finish`): SIGINT (Ctrl-C) or SIGTERM during the run
+stops it at the end of the current step; a solver error stops it too. The example then writes its
+summary (``stopped_early``, ``stopped_early_time_s``), CSVs and figures as usual, and
+:func:`finish` adds the final VTK records, marks the run's figures as stopped early and exits
+non-zero, so that yade-batch and shell scripts see that the run did not complete.
 """
 import os
+import signal
 import sys
+import threading
+import time
 
 
 def scriptArgs(name, defaults, quick=None, argv=None, out=None):
@@ -75,15 +84,204 @@ def _tag(O, key, default):
         return default
 
 
-def runSteps(steps):
-    """O.run(steps, True) that keeps what was computed when the solver stops the run with an
-    error (a point leaving the grid, a non-finite value): it prints the message and returns it,
-    so the example can still write its summary and figures. Returns None after a normal run."""
+# Exit status of a run stopped by a solver error; an interrupted run exits with 128 + the
+# signal's number (130 for SIGINT, 143 for SIGTERM), as a shell reports a process killed by it.
+SOLVER_ERROR_STATUS = 1
+_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
+class RunEnd:
+    """How :func:`runSteps` ended.
+
+    reason    None (every step ran, or the script paused the run itself), ``"interrupted"``
+              (SIGINT or SIGTERM) or the solver's error message
+    signal    the signal's name when interrupted (``"SIGINT"``, ``"SIGTERM"``), else None
+    time      O.time at the end, s (after the last complete step)
+    iter      O.iter at the end
+    started   wall-clock time (time.time()) when the run began
+    """
+
+    def __init__(self, reason, signalName, started):
+        from yade import O
+        self.reason, self.signal, self.started = reason, signalName, started
+        self.time, self.iter = O.time, O.iter
+
+    @property
+    def early(self):
+        return self.reason is not None
+
+    @property
+    def exitStatus(self):
+        if self.reason is None:
+            return 0
+        if self.signal:
+            return 128 + int(getattr(signal, self.signal))
+        return SOLVER_ERROR_STATUS
+
+    def summary(self):
+        """The keys every example's summary.json carries about the end of its run."""
+        return dict(stopped_early=self.reason, stopped_early_time_s=self.time if self.early else None)
+
+    def note(self):
+        """One line for figures and the log, e.g. 'stopped early at t = 23.4 us (iteration 2340):
+        interrupted (SIGINT)'; '' after a complete run."""
+        if not self.early:
+            return ""
+        why = f"interrupted ({self.signal})" if self.signal else self.reason
+        return f"stopped early at t = {_seconds(self.time)} (iteration {self.iter}): {why}"
+
+    def check(self):
+        """Raises what a plain ``O.run(steps, True)`` would have: KeyboardInterrupt when
+        interrupted, RuntimeError with the message after a solver error. For runs with nothing
+        to save (calibrations, set-up)."""
+        if self.signal:
+            raise KeyboardInterrupt(self.note())
+        if self.early:
+            raise RuntimeError(self.reason)
+        return self
+
+
+def _seconds(t):
+    for unit, scale in (("us", 1e-6), ("ms", 1e-3)):
+        if abs(t) < 1e3 * scale:
+            return f"{t / scale:.4g} {unit}"
+    return f"{t:.4g} s"
+
+
+def runSteps(steps, poll=0.05):
+    """``O.run(steps, True)`` that a signal or a solver error stops without losing the run.
+
+    YADE runs the loop in a thread of its own, and Python handles a signal only when the main
+    thread runs Python code: a plain ``O.run(steps, True)`` holds off Ctrl-C until the end of
+    the run. Here the loop is waited for in a helper thread while the main thread wakes every
+    `poll` seconds; SIGINT and SIGTERM (handlers installed for the run, the previous ones put
+    back after it) make it call ``O.pause()``, which stops the loop at the end of the current
+    step. A solver error (a point leaving the grid, a non-finite value) ends the run with its
+    message. Either way the state stays as the last complete step left it, so the example can
+    write its summary and figures. Returns a :class:`RunEnd`."""
     from yade import O
+    started = time.time()
+    if threading.current_thread() is not threading.main_thread():  # signals reach the main thread only
+        message = _run(O, steps)
+        if message is None:
+            _awaitStepEnd(O)
+        return RunEnd(message, None, started)
+    caught = []
+
+    def onSignal(signum, frame):
+        if not caught:
+            print(f"{signal.Signals(signum).name}: stopping the run at the end of the current step", flush=True)
+        caught.append((signal.Signals(signum).name, time.time()))
+
+    outcome = {}
+    worker = threading.Thread(target=lambda: outcome.update(result=_run(O, steps, outcome)),
+                              name="eigenmpm-run", daemon=True)
+    previous = {s: signal.signal(s, onSignal) for s in _SIGNALS}
+    try:
+        worker.start()
+        paused = False
+        while worker.is_alive():
+            worker.join(poll)
+            if caught and not paused:
+                O.pause()
+                paused = True
+        if outcome.get("result") is None and "raised" not in outcome:
+            _awaitStepEnd(O)
+    finally:
+        if worker.is_alive():  # only when this thread was stopped by something else
+            O.pause()
+            worker.join()
+        for s, handler in previous.items():
+            signal.signal(s, handler)
+    if "raised" in outcome:
+        raise outcome["raised"]
+    if caught:
+        print(f"run stopped at iteration {O.iter}, t = {_seconds(O.time)}, "
+              f"{time.time() - caught[0][1]:.3f} s after {caught[0][0]}", flush=True)
+    if outcome.get("result") is not None:
+        return RunEnd(outcome["result"], None, started)
+    if caught:
+        return RunEnd("interrupted", caught[0][0], started)
+    return RunEnd(None, None, started)
+
+
+def _awaitStepEnd(O, poll=0.002):
+    """Returns when no iteration is in progress. After ``O.pause()`` (ours, or a script's own from
+    an engine) O.run returns at once while the loop thread still finishes the current
+    iteration: reading the state then would race with it. YADE's O.subStep is -1 between
+    iterations and >= 0 inside one."""
+    while O.subStep != -1:
+        time.sleep(poll)
+
+
+def _run(O, steps, outcome=None):
+    """O.run(steps, True); returns None or the message of the error that stopped it. Any other
+    exception is kept in outcome['raised'] (re-raised by the main thread) or raised."""
     try:
         O.run(steps, True)
     except RuntimeError as err:
         message = str(err).split("ERROR:")[-1].split("STACK TRACE:")[0].strip()
         print("run stopped early:", message, flush=True)
         return message
+    except BaseException as err:  # raised in the helper thread: the main thread re-raises it
+        if outcome is None:
+            raise
+        outcome["raised"] = err
     return None
+
+
+def finish(end, out=None):
+    """Ends an example once it has written its outputs. Writes the final state to every
+    VTKRecorder in O.engines (unless already recorded). After a complete run it returns; after a
+    run stopped early it marks the figures (``*.png`` under `out` written since the run began)
+    with a banner saying so, with the time, and exits with ``end.exitStatus`` (non-zero)."""
+    from yade import O
+    from .recorders import VTKRecorder
+    for e in O.engines:
+        if isinstance(e, VTKRecorder):
+            e.finalRecord()
+    if not end.early:
+        return
+    note = end.note()
+    if out is not None:
+        for path in sorted(_figuresSince(out, end.started)):
+            markStoppedEarly(path, note)
+    print(f"run {note}; outputs written; exit status {end.exitStatus}", flush=True)
+    sys.exit(end.exitStatus)
+
+
+def _figuresSince(out, started):
+    for folder, _, names in os.walk(out):
+        for n in names:
+            path = os.path.join(folder, n)
+            if n.endswith(".png") and os.path.getmtime(path) >= started - 1.0:  # coarse file clocks
+                yield path
+
+
+def markStoppedEarly(path, note):
+    """Adds a red band with `note` above the PNG image at `path` (the image itself is kept pixel
+    for pixel); the file is replaced when the new one is complete."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.patches import Rectangle
+    img = plt.imread(path)
+    h, w = img.shape[:2]
+    band, dpi = max(28, h // 16), 100
+    total = h + band
+    fig = plt.figure(figsize=(w / dpi, total / dpi), dpi=dpi)
+    fig.figimage(img, xo=0, yo=0, origin="upper")
+    top = 1.0 - band / total
+    fig.add_artist(Rectangle((0, top), 1, 1 - top, transform=fig.transFigure, facecolor="#b00020",
+                             linewidth=0, antialiased=False))  # no edge: it would cover the image's top row
+    size = 0.45 * band * 72 / dpi
+    room = max(10, int(w / (0.6 * size * dpi / 72)))  # characters that fit across the image
+    text = note if len(note) <= room else note[:room - 3] + "..."
+    fig.text(0.5, 0.5 * (1 + top), text.upper()[:1] + text[1:], ha="center", va="center", color="white",
+             fontsize=size, fontweight="bold")
+    root, ext = os.path.splitext(path)
+    partial = f"{root}.part{ext}"
+    fig.savefig(partial, dpi=dpi)
+    plt.close(fig)
+    os.replace(partial, path)
+    return path

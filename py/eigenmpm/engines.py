@@ -185,6 +185,8 @@ class MpmEngine(PyRunner):
         self._materials = {}
         self._started = False
         self._lastIter = None
+        # Where each point was added (m), by point id: output measures displacement from it.
+        self.referencePositions = np.zeros((0, 3))
 
     # --- specimen -------------------------------------------------------------------------
     def material(self, mat):
@@ -205,6 +207,7 @@ class MpmEngine(PyRunner):
         vel = np.zeros((n, 3)) if velocities is None else np.asarray(velocities, dtype=float)
         vel = np.ascontiguousarray(np.broadcast_to(vel, (n, 3)))
         first = self.solver.addPoints(pos, vel, vol, self.material(material))
+        self.referencePositions = np.concatenate([self.referencePositions, pos])
         return np.arange(first, first + n)
 
     def fill(self, predicate, material, velocity=(0, 0, 0)):

@@ -25,10 +25,13 @@ def _requirePeriod(engine, owner):
 @declare
 class VTKRecorder(PyRunner):
     """Writes the material points of an MpmEngine as VTK XML poly data (``.vtp``, one file per
-    record) plus a ParaView collection ``<fileName>.pvd`` with the time of each file. Point data:
-    velocity, displacement, stress and strain (3x3), psiPlus, H (history), damage, material.
-    Periodic like YADE's VTKRecorder (iterPeriod or virtPeriod, one of them > 0). When the
-    solver stops on an error, the state at that moment is written as ``<fileName>failure.vtp``.
+    record) plus a ParaView collection ``<fileName>.pvd`` with the time of each file. Point data
+    (names, units and meanings in doc/output.md): velocity, displacement (from the reference
+    configuration, where each point was added), stress and strain (3x3), psiPlus, H (history),
+    damage (0 intact, 1 eroded), material. Periodic like YADE's VTKRecorder (iterPeriod or
+    virtPeriod, one of them > 0); :meth:`finalRecord` adds the state at the end of a run when the
+    last step was not recorded. When the solver stops on an error, the state at that moment is
+    written as ``<fileName>failure.vtp``.
 
     Example::
 
@@ -42,6 +45,8 @@ class VTKRecorder(PyRunner):
               accepts="non-empty string", check=lambda f: f != ""),
         _ITER,
         _VIRT,
+        Param("float32", False, "", "write positions and real-valued point data in single precision "
+                                    "(about 7 significant digits, half the size of the files)"),
     )
 
     def __init__(self, **kw):
@@ -52,7 +57,7 @@ class VTKRecorder(PyRunner):
         self.command = _register(self)
         self.files = []
         self._attached = None
-        self._x0 = None
+        self._recordedSteps = None  # solver.steps of the last state written, to skip a duplicate
 
     def _mpm(self):
         mpm = findEngine(self.engine)
@@ -67,57 +72,88 @@ class VTKRecorder(PyRunner):
     def onFailure(self, mpm, err):
         self.write(mpm, suffix="failure", index=False)
 
+    def finalRecord(self):
+        """Writes the current state as the last record of the series unless it is already
+        written (the last step was recorded, or the solver failed and ``<fileName>failure.vtp``
+        holds it). Returns the path written, or None."""
+        mpm = self._mpm()
+        if self._recordedSteps == mpm.solver.steps:
+            return None
+        return self.write(mpm)
+
+    def pointData(self, mpm):
+        """The point data written for `mpm`: name -> array (n or n x k), see doc/output.md."""
+        s = mpm.solver
+        x = s.positions()
+        n = len(x)
+        x0 = mpm.referencePositions
+        if len(x0) != n:
+            raise RuntimeError(f"EigenMPM: {n} points in the solver, {len(x0)} added through "
+                               "MpmEngine.addPoints or fill; add points only through these")
+        return {"velocity": s.velocities(), "displacement": x - x0,
+                "stress": s.stress().reshape(n, 9), "strain": s.strain().reshape(n, 9),
+                "psiPlus": s.psiPlus(), "H": s.history(),
+                # the solver's c is 1 intact, 0 eroded (g(c) = c, paper Eq 21); output follows the
+                # usual damage convention
+                "damage": 1.0 - s.damage(), "material": s.material().astype(np.int32)}
+
     def write(self, mpm, suffix=None, index=True):
+        """Writes the state of `mpm` as ``<fileName><iteration or suffix>.vtp``; with `index`,
+        adds it to the collection. Returns the path."""
         from vtkmodules.util.numpy_support import numpy_to_vtk
         from vtkmodules.vtkCommonCore import vtkPoints
         from vtkmodules.vtkCommonDataModel import vtkCellArray, vtkPolyData
         from vtkmodules.vtkIOXML import vtkXMLPolyDataWriter
 
         s = mpm.solver
+        real = np.float32 if self.float32 else np.float64
         x = s.positions()
-        if self._x0 is None or len(self._x0) != len(x):
-            self._x0 = x.copy()
         n = len(x)
         poly = vtkPolyData()
         pts = vtkPoints()
-        pts.SetData(numpy_to_vtk(x, deep=True))
+        pts.SetData(numpy_to_vtk(np.ascontiguousarray(x, dtype=real), deep=True))
         poly.SetPoints(pts)
         verts = vtkCellArray()
         conn = np.arange(n, dtype=np.int64)
         offsets = np.arange(n + 1, dtype=np.int64)
         verts.SetData(numpy_to_vtk(offsets, deep=True), numpy_to_vtk(conn, deep=True))
         poly.SetVerts(verts)
-        fields = {"velocity": s.velocities(), "displacement": x - self._x0,
-                  "stress": s.stress().reshape(n, 9), "strain": s.strain().reshape(n, 9),
-                  "psiPlus": s.psiPlus(), "H": s.history(), "damage": s.damage(),
-                  "material": s.material()}
-        for name, arr in fields.items():
-            a = numpy_to_vtk(np.ascontiguousarray(arr), deep=True)
+        for name, arr in self.pointData(mpm).items():
+            arr = np.ascontiguousarray(arr, dtype=real if arr.dtype.kind == "f" else arr.dtype)
+            a = numpy_to_vtk(arr, deep=True)
             a.SetName(name)
             poly.GetPointData().AddArray(a)
         tag = suffix if suffix else f"{O.iter:08d}"
         path = f"{self.fileName}{tag}.vtp"
         os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
         w = vtkXMLPolyDataWriter()
-        w.SetFileName(path)
+        partial = path + ".part"  # renamed when complete: an interrupted write leaves no broken file
+        w.SetFileName(partial)
         w.SetInputData(poly)
         w.SetDataModeToAppended()
         w.SetCompressorTypeToZLib()
         if not w.Write():
             raise RuntimeError(f"EigenMPM: could not write {path}")
+        os.replace(partial, path)
+        self._recordedSteps = s.steps
         if index:
             self.files.append((s.time, path))
             self._writeCollection()
         return path
 
     def _writeCollection(self):
+        import xml.etree.ElementTree as ET
         pvd = f"{self.fileName}.pvd" if not self.fileName.endswith(("/", "-", "_")) else f"{self.fileName}series.pvd"
         base = os.path.dirname(os.path.abspath(pvd))
-        rows = "\n".join(f'    <DataSet timestep="{t:.12g}" file="{os.path.relpath(os.path.abspath(p), base)}"/>'
-                         for t, p in self.files)
-        with open(pvd, "w") as f:
-            f.write('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n  <Collection>\n'
-                    f"{rows}\n  </Collection>\n</VTKFile>\n")
+        root = ET.Element("VTKFile", type="Collection", version="0.1")
+        collection = ET.SubElement(root, "Collection")
+        for t, p in self.files:
+            ET.SubElement(collection, "DataSet", timestep=f"{t:.12g}",
+                          file=os.path.relpath(os.path.abspath(p), base))
+        ET.indent(root)
+        partial = pvd + ".part"
+        ET.ElementTree(root).write(partial, encoding="utf-8", xml_declaration=True)
+        os.replace(partial, pvd)
         self.collection = pvd
 
 

@@ -139,3 +139,42 @@ def test_combine_merges_studies_against_one_reference(tmp_path):
                  log=lambda *_: None)
     with pytest.raises(study.StudyError, match="reference_dir"):
         study.combine([str(a), str(c)], str(tmp_path / "bad"))
+
+
+def test_runs_stopped_early_keep_their_summary_and_only_repeatable_ones_are_reused(tmp_path):
+    # A stand-in for yade: writes the summary it is told to (or none) into --out and exits with
+    # the status it is told to; each call is counted.
+    fake = tmp_path / "fake-yade"
+    fake.write_text("#!/bin/sh\n"
+                    "out=''; prev=''\n"
+                    "for a in \"$@\"; do [ \"$prev\" = --out ] && out=$a; prev=$a; done\n"
+                    "echo call >> \"$out/calls\"\n"
+                    "[ -n \"$FAKE_SUMMARY\" ] && printf '%s' \"$FAKE_SUMMARY\" > \"$out/summary.json\"\n"
+                    "exit $FAKE_STATUS\n")
+    fake.chmod(0o755)
+
+    def run(name, summary, status):
+        os.environ.update(FAKE_SUMMARY=json.dumps(summary) if summary else "", FAKE_STATUS=str(status))
+        try:
+            out = tmp_path / name
+            out.mkdir(exist_ok=True)
+            rec = study.runOne("examples/crack_branching.py", str(out), [], yade=str(fake))
+            return rec, study._status(rec, rec["summary"]), len((out / "calls").read_text().split())
+        finally:
+            del os.environ["FAKE_SUMMARY"], os.environ["FAKE_STATUS"]
+
+    error = {"stopped_early": "point 3 left the grid", "steps": 10}
+    rec, status, calls = run("error", error, 1)
+    assert rec["returncode"] == 1 and rec["summary"] == error and status == "stopped early" and calls == 1
+    rec, status, calls = run("error", error, 1)
+    assert rec["reused"] and calls == 1  # a solver error repeats: not run again
+    interrupted = {"stopped_early": "interrupted", "steps": 5}
+    rec, status, calls = run("sigint", interrupted, 130)
+    assert rec["summary"] == interrupted and status == "stopped early" and calls == 1
+    rec, status, calls = run("sigint", interrupted, 130)
+    assert not rec["reused"] and calls == 2  # an interrupted run is run again
+    (tmp_path / "crash").mkdir()
+    (tmp_path / "crash" / "summary.json").write_text(json.dumps({"stopped_early": None, "steps": 99}))
+    os.utime(tmp_path / "crash" / "summary.json", (1e9, 1e9))  # left by an older run
+    rec, status, calls = run("crash", None, 1)  # exits before writing its summary
+    assert rec["summary"] is None and status == "failed (1)"

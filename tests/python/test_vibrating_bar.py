@@ -30,7 +30,7 @@ def test_script_quick_writes_summary_and_plot(tmp_path):
 
 
 def test_default_resolution_within_one_percent():
-    summary, _ = vibrating_bar.run()
+    summary, _, _ = vibrating_bar.run()
     assert summary["rel_error"] < 0.01
 
 

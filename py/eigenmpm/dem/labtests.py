@@ -108,10 +108,11 @@ def uniaxialTension(calibration, rho, layers, length, width, direction, strainRa
         if stopBelow and F / area < stopBelow * state["peak"]:
             O.pause()
 
+    from ..cli import runSteps
     from ..engines import callEvery
     O.engines = O.engines + [callEvery(sample, iterPeriod=every)]
     start, cpu = time.time(), time.process_time()
-    O.run(steps, True)
+    runSteps(steps).check()  # Ctrl-C stops at once: nothing to keep from a calibration run
     wall, cpu = time.time() - start, time.process_time() - cpu
     e = np.array(curve)
     ip = int(np.argmax(e[:, 1]))

@@ -259,13 +259,13 @@ def _distanceToPolyline(p, v, caps=True):
        Param("records", 1000, "", "about how many times both models are recorded", bounds="[1, inf)"))
 def runToDisplacement(pair, out, load, displacement, velocity, rampTime, dtFraction, title, extra, cpu0, sign,
                       band, component, records):
-    """Runs a DemMpmPair until its load point has moved by a given distance, then writes its report.
-    The load point moves by `displacement` (m) under `velocity` (m/s) reached over the ramp
-    `rampTime` (s) (paper Eq 34), with O.dt = dtFraction x the smaller critical step; both models
-    are recorded about `records` times and the progress reported; a run the solver stops with an
-    error keeps what it computed (eigenmpm.cli.runSteps). Then :func:`report` and a print of the
-    main numbers: returns the summary, with `cpu_time_s` since `cpu0` (time.process_time()) when
-    given."""
+    """Runs the pair until the load point has moved by `displacement` (m) under `velocity`
+    (m/s) reached over the ramp `rampTime` (s) (paper Eq 34), with O.dt = dtFraction x the smaller
+    critical step, recording both models about `records` times and reporting progress; a run the
+    solver stops with an error, or that SIGINT/SIGTERM interrupts, keeps what it computed
+    (eigenmpm.cli.runSteps). Then report() and a print of the main numbers: returns the summary,
+    with `cpu_time_s` since `cpu0` (time.process_time()) when given, and the run's
+    eigenmpm.cli.RunEnd (for eigenmpm.cli.finish)."""
     from yade import O
     from ..cli import runSteps
     from ..engines import callEvery
@@ -278,9 +278,9 @@ def runToDisplacement(pair, out, load, displacement, velocity, rampTime, dtFract
     print(f"MPM {pair.mpm.solver.numPoints} points, DEM {len(pair.dem.ids)} spheres ({pair.layers} layers), "
           f"dt {dt:.3g} s (critical DEM {dtDem:.3g}, MPM {dtMpm:.3g}), {steps} steps", flush=True)
     start = time.time()
-    stopped = runSteps(steps)
+    end = runSteps(steps)
     wall = time.time() - start
-    info = dict(extra or {}, stopped_early=stopped, imposed_displacement_m=displacement)
+    info = dict(extra or {}, **end.summary(), imposed_displacement_m=displacement)
     summary = reports.report(pair, out, load, component=component, title=title, wall=wall, sign=sign, band=band,
                              extra=info, cpu=None if cpu0 is None else time.process_time() - cpu0)
     import json
@@ -289,4 +289,4 @@ def runToDisplacement(pair, out, load, displacement, velocity, rampTime, dtFract
             "mpm_wall_s", "dem_wall_s", "particles", "steps", "wall_time_s", "cpu_time_s")
     print(json.dumps({k: summary.get(k) for k in keys}, indent=2, default=float))
     print("outputs in", out)
-    return summary
+    return summary, end
