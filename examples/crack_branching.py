@@ -14,6 +14,12 @@ within one layer h of the edges (paper Eq 28).
 Run::
 
     yade -n -x examples/crack_branching.py [--quick] [--out DIR] [param=value ...]
+        [--checkpoint-every N] [--resume DIR/checkpoints]
+
+--checkpoint-every N saves the scene every N iterations into DIR/checkpoints (eigenmpm.Checkpoint,
+doc/restart.md); --resume DIR/checkpoints continues from the newest of them to the end state of
+the uninterrupted run (give the same parameters), and writes the outputs as usual (wall_time_s
+then counts the resumed part only).
     yade-batch table.txt examples/crack_branching.py      # a column per parameter (and quick)
 
 with params h_mm, ppc, shape, kappaOverH, alpha, endTime_us, dt_us, dtFraction (if > 0: the time step
@@ -38,7 +44,7 @@ from yade import O, pack, plot
 
 import eigenmpm as em
 from eigenmpm import plots
-from eigenmpm.cli import finish, runSteps, scriptArgs
+from eigenmpm.cli import checkpointArgs, finish, runSteps, scriptArgs
 from eigenmpm.fracture import linked
 
 DEFAULTS = dict(h_mm=0.25, ppc=2, shape="uGIMP", kappaOverH=1.1, alpha=2.0, endTime_us=80.0, dt_us=0.01,
@@ -89,23 +95,33 @@ def edgeArrivals(X0, events, L, W, spacing, radius):
 
 
 def main(argv):
+    argv, resume, every = checkpointArgs("crack_branching", argv)
     o, out, quick = scriptArgs("crack_branching", DEFAULTS, QUICK, argv)
     os.makedirs(out, exist_ok=True)
     O.reset()
     plot.reset()
-    mpm, crack = build(o)
-    if o["dtFraction"] > 0:  # the time step as a fraction of the critical one, instead of dt_us
-        o["dt_us"] = o["dtFraction"] * mpm.criticalTimeStep() * 1e6
-        crack.iterPeriod = max(1, int(round(0.1 / o["dt_us"])))
-    O.dt = o["dt_us"] * 1e-6
+    if resume:  # the scene, its engines and their records as checkpointed (doc/restart.md)
+        em.checkpoint.resume(resume)
+        mpm = em.findEngine("plate")
+        crack = mpm.physics["erosion"]
+        o["dt_us"] = O.dt * 1e6
+    else:
+        mpm, crack = build(o)
+        if o["dtFraction"] > 0:  # the time step as a fraction of the critical one, instead of dt_us
+            o["dt_us"] = o["dtFraction"] * mpm.criticalTimeStep() * 1e6
+            crack.iterPeriod = max(1, int(round(0.1 / o["dt_us"])))
+        O.dt = o["dt_us"] * 1e-6
     steps = int(round(o["endTime_us"] / o["dt_us"]))
-    vtk = em.VTKRecorder(fileName=os.path.join(out, "vtk", "plate-"),
-                         iterPeriod=max(1, int(round(o["vtkPeriod_us"] / o["dt_us"]))))
-    O.engines = [mpm, crack, em.PlotRecorder(iterPeriod=crack.iterPeriod), vtk,
-                 em.Progress(endIter=steps, realPeriod=20)]
-    X0 = mpm.solver.positions().copy()
+    if not resume:
+        vtk = em.VTKRecorder(fileName=os.path.join(out, "vtk", "plate-"),
+                             iterPeriod=max(1, int(round(o["vtkPeriod_us"] / o["dt_us"]))))
+        O.engines = [mpm, crack, em.PlotRecorder(iterPeriod=crack.iterPeriod), vtk,
+                     em.Progress(endIter=steps, realPeriod=20)]
+        if every:
+            O.engines = [em.Checkpoint(directory=os.path.join(out, "checkpoints"), iterPeriod=every)] + list(O.engines)
+    X0 = mpm.referencePositions
     start = time.time()
-    end = runSteps(steps)  # Ctrl-C, SIGTERM or a solver error: outputs up to the stop, then finish()
+    end = runSteps(steps - O.iter)  # Ctrl-C, SIGTERM or a solver error: outputs up to the stop, then finish()
     steps = mpm.solver.steps
     wall = time.time() - start
     n = mpm.solver.numPoints

@@ -55,6 +55,36 @@ def scriptArgs(name, defaults, quick=None, argv=None, out=None):
     return params, outDir, isQuick
 
 
+def checkpointArgs(name, argv=None):
+    """Splits the checkpoint options off an example's command line:
+    ``--checkpoint-every N`` (save a checkpoint every N iterations into DIR/checkpoints, where DIR
+    is the example's --out) and ``--resume DIR`` (continue from the newest checkpoint in DIR,
+    e.g. out/crack_branching/checkpoints). Returns (the other arguments, resume folder or None,
+    N or 0)."""
+    argv = sys.argv[1:] if argv is None else list(argv)
+    rest, resume, every = [], None, 0
+    it = iter(argv)
+    for a in it:
+        if a in ("--resume", "--checkpoint-every"):
+            try:
+                value = next(it)
+            except StopIteration:
+                raise SystemExit(f"{name}: {a} needs a value") from None
+            if a == "--resume":
+                resume = value
+            else:
+                try:
+                    every = int(value)
+                except ValueError:
+                    every = -1
+                if every < 1:
+                    raise SystemExit(f"{name}: --checkpoint-every = {value!r} is invalid; allowed: an "
+                                     "integer >= 1 (iterations)")
+        else:
+            rest.append(a)
+    return rest, resume, every
+
+
 def _convert(default, text, key, name):
     try:
         if isinstance(default, bool):
