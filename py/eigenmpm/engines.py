@@ -6,6 +6,7 @@ back into the engine object (looked up through this module, not through ``__main
 namespace differs between ``yade script.py``, ``yade -x`` and plain Python).
 """
 import itertools
+import weakref
 
 import numpy as np
 from yade import O, PyRunner
@@ -13,7 +14,9 @@ from yade import O, PyRunner
 from . import _eigenmpm
 from .params import Param, apply, declare, takes, vec3
 
-_registry = {}
+# Engine objects by key, for their commands. Weak: an engine in O.engines is held by YADE (which
+# holds the Python object of a Python subclass), one that no one holds is freed.
+_registry = weakref.WeakValueDictionary()
 _keys = itertools.count()
 
 
@@ -21,6 +24,45 @@ def _register(engine):
     key = next(_keys)
     _registry[key] = engine
     return f"import eigenmpm.engines as _m; _m._registry[{key}]._action()"
+
+
+class _Released:
+    """What an engine holds in place of its solver (or erosion state) once O.reset() freed it:
+    any use says so instead of failing obscurely."""
+
+    def __init__(self, what):
+        object.__setattr__(self, "_what", what)
+
+    def _fail(self, *_):
+        raise RuntimeError(f"EigenMPM: {self._what} was freed by O.reset(); read the results before "
+                           "O.reset(), or build the scene again")
+
+    __getattr__ = __setattr__ = __bool__ = __len__ = __iter__ = __call__ = _fail
+
+
+def _wrapReset():
+    """Makes O.reset() free our engines of the scene it ends. YADE keeps every Python engine that
+    was ever assigned to O.engines alive (one reference per assignment, and its label in
+    builtins), so the engines cannot be freed; their heavy state (the solver, the erosion state)
+    is released instead (``_release``). Released: the engines in O.engines at the reset and those
+    that stepped."""
+    from yade.wrapper import Omega
+    original = getattr(Omega.reset, "_eigenmpmOriginal", Omega.reset)
+
+    def reset(self, *args, **kwargs):
+        scene = {id(e) for e in O.engines}
+        ending = [e for e in list(_registry.values())
+                  if hasattr(e, "_release") and (id(e) in scene or getattr(e, "_started", False))]
+        original(self, *args, **kwargs)
+        for e in ending:
+            e._release()
+
+    reset._eigenmpmOriginal = original
+    reset.__doc__ = original.__doc__
+    Omega.reset = reset
+
+
+_wrapReset()
 
 
 def mpmEngines():
@@ -66,7 +108,9 @@ class VelocityBC:
     """
 
     def __init__(self, engine, cid, label, velocity, rampTime):
-        self._engine, self.id, self.label = engine, cid, label
+        # Weak: the engine holds its conditions, and a reference cycle through a YADE engine is
+        # never collected (Boost.Python does not show the engine's attributes to the collector).
+        self._engine, self.id, self.label = weakref.proxy(engine), cid, label
         self.velocity, self.rampTime = velocity, rampTime
 
     @property
@@ -171,6 +215,12 @@ class MpmEngine(PyRunner):
         self.physics = {}  # label -> attached physics engine (EigenErosion, ...)
         self._materials = {}
         self._started = False
+
+    def _release(self):
+        """Frees the solver and what refers to the scene (O.reset(), see _wrapReset)."""
+        self.solver = _Released(f"the solver of MpmEngine {self.label!r}")
+        self.bcs, self.recorders, self.physics, self._materials = {}, [], {}, {}
+        self._released = True
 
     # --- specimen -------------------------------------------------------------------------
     def material(self, mat):
@@ -340,17 +390,25 @@ ENGINE = Param("engine", None, "", "the MpmEngine (object or label); default: th
                check=lambda e: isinstance(e, (MpmEngine, str)))
 
 
-class _Call:
-    def __init__(self, function):
+class _Call(PyRunner):
+    """The PyRunner of callEvery: a Python object, so that YADE holds the function with it."""
+
+    def __init__(self, function, label):
+        PyRunner.__init__(self, initRun=True, label=label)
         self._function = function
+        self.command = _register(self)
 
     def _action(self):
         self._function()
+
+    def _release(self):
+        self._function = _Released("the function of callEvery")
+        self._released = True
 
 
 def callEvery(function, iterPeriod=1, virtPeriod=0.0, label=""):
     """A PyRunner that calls ``function()`` every iterPeriod iterations (or virtPeriod seconds),
     starting at the first iteration. Unlike a command string it needs no name in ``__main__``."""
-    r = PyRunner(command=_register(_Call(function)), initRun=True, label=label)
+    r = _Call(function, label)
     r.iterPeriod, r.virtPeriod = int(iterPeriod), float(virtPeriod)
     return r

@@ -6,7 +6,7 @@ import numpy as np
 from yade import O, PyRunner
 
 from . import _eigenmpm
-from .engines import ENGINE, _register, findEngine
+from .engines import ENGINE, _register, _Released, findEngine
 from .params import Param, apply, declare
 
 
@@ -105,6 +105,11 @@ class EigenErosion(PyRunner):
         mpm.physics[self.label] = self
         self._mpm = mpm
         return mpm
+
+    def _release(self):
+        """Frees the erosion state (O.reset(), see engines._wrapReset)."""
+        self.core = _Released(f"the erosion state of EigenErosion {self.label!r}")
+        self.history, self._mpm, self._released = [], None, True
 
     def _action(self):
         mpm = self.attach()
