@@ -212,7 +212,7 @@ class MpmEngine(PyRunner):
         self.command = _register(self)
         self.bcs = {}
         self.recorders = []
-        self.physics = {}  # label -> attached physics engine (EigenErosion, ...)
+        self.physics = {}  # label -> physics engine acting on this solver (EigenErosion, ...)
         self._materials = {}
         self._started = False
 
@@ -340,16 +340,23 @@ class MpmEngine(PyRunner):
         """h / (wave speed + max point speed): the largest O.dt this engine accepts, in s."""
         return self.solver.criticalTimeStep()
 
-    def _attachPhysics(self):
-        # Physics engines placed in O.engines attach their stage before the first step.
-        for e in O.engines:
-            if hasattr(e, "attach") and e is not self and findEngine(e.engine) is self:
-                e.attach(self)
+    def _syncPhysics(self):
+        """A physics engine (EigenErosion, ...) acts only while it is in O.engines and not dead:
+        each step, those there that work for this engine attach their stage, and any other
+        attached one is detached. Returns O.engines."""
+        engines = O.engines
+        active = [e for e in engines if e is not self and callable(getattr(type(e), "attach", None))
+                  and not e.dead and findEngine(e.engine) is self]
+        for e in list(self.physics.values()):
+            if not any(e is a for a in active):
+                e.detach(self)
+        for e in active:
+            e.attach(self)
+        return engines
 
     def _action(self):
-        if not self._started:
-            self._attachPhysics()
-            self._started = True
+        engines = self._syncPhysics()
+        self._started = True
         t = O.time
         self.solver.time = t
         for bc in self.bcs.values():
@@ -359,7 +366,8 @@ class MpmEngine(PyRunner):
             self.solver.step(O.dt, int(threads))
         except Exception as err:
             for rec in self.recorders:
-                rec.onFailure(self, err)
+                if any(rec is e for e in engines) and not rec.dead:
+                    rec.onFailure(self, err)
             raise
 
     # --- diagnostics ----------------------------------------------------------------------

@@ -40,9 +40,10 @@ class EigenErosion(PyRunner):
     a step erode together; an eroded point keeps only its compressive stress sigma-. No
     neighbour search runs while alpha kappa max H < Gc.
 
-    The work happens inside the solver's step; this engine, placed in O.engines, attaches it
-    and records the crack's diagnostics every iterPeriod: dissipated energy (Eq 33), eroded
-    count, crack tips and tip speed (see :meth:`tips`).
+    The work happens inside the solver's step, and only while this engine is in O.engines (and
+    not dead): the MpmEngine attaches the stage at each step it finds the engine there, and
+    detaches it otherwise. The engine records the crack's diagnostics every iterPeriod:
+    dissipated energy (Eq 33), eroded count, crack tips and tip speed (see :meth:`tips`).
 
     Example::
 
@@ -79,14 +80,50 @@ class EigenErosion(PyRunner):
         self.core = None
         self.history = []  # (time, dissipated J, eroded count, front distance m, tip positions)
         self._origin = None if self.origin is None else np.array(self.origin)
+        self._mpm = None
         if self.engine is not None and not isinstance(self.engine, str):
-            self.attach(self.engine)
+            self._prepare(self.engine)  # checks kappa against the engine now; acts from O.engines
 
     def attach(self, mpm=None):
-        """Attaches the erosion stage to the solver of `mpm` (done automatically)."""
+        """Attaches the erosion stage to the solver of `mpm` (the MpmEngine does it at each step
+        while this engine is in O.engines, and detaches it otherwise). Returns the MpmEngine."""
         mpm = findEngine(mpm if mpm is not None else self.engine)
-        if self.core is not None and mpm.solver.erosion is self.core:
+        self._prepare(mpm)
+        attached = mpm.solver.erosion
+        if attached is self.core:
             return mpm
+        if attached is not None:
+            other = [e.label for e in mpm.physics.values() if e is not self]
+            raise ValueError(f"EigenMPM: EigenErosion {self.label!r} cannot act on MpmEngine {mpm.label!r}: "
+                             f"EigenErosion {', '.join(map(repr, other)) or '(detached)'} already does; "
+                             "allowed: one EigenErosion per MpmEngine in O.engines")
+        mpm.solver.setErosion(self.core)
+        mpm.physics[self.label] = self
+        return mpm
+
+    def detach(self, mpm):
+        """Removes the erosion stage from the solver of `mpm` (this engine left O.engines)."""
+        if mpm.solver.erosion is self.core:
+            mpm.solver.setErosion(None)
+        for label, e in list(mpm.physics.items()):
+            if e is self:
+                del mpm.physics[label]
+
+    def _release(self):
+        """Frees the erosion state (O.reset(), see engines._wrapReset)."""
+        self.core = _Released(f"the erosion state of EigenErosion {self.label!r}")
+        self.history, self._mpm, self._released = [], None, True
+
+    def _prepare(self, mpm):
+        """The erosion state for `mpm`, made once: kappa from kappaOverH, checked against the
+        point spacing and the range of Appendix A."""
+        if getattr(self, "_released", False):
+            self.core._fail()
+        if self.core is not None:
+            if self._mpm is not mpm:
+                raise ValueError(f"EigenMPM: EigenErosion {self.label!r} was built for MpmEngine "
+                                 f"{self._mpm.label!r}, not {mpm.label!r}; build one per engine")
+            return
         kappa = self.kappa if self.kappa is not None else self.kappaOverH * mpm.h
         low, high = kappaRange(mpm.h, mpm.dim)
         spacing = mpm.h / mpm.ppc
@@ -94,26 +131,21 @@ class EigenErosion(PyRunner):
             warnings.warn(f"EigenErosion: kappa = {kappa:.4g} m is below the point spacing "
                           f"{spacing:.4g} m, so the neighbourhood holds only the point itself "
                           f"(single-point erosion); Appendix A suggests {low:.4g} to {high:.4g} m",
-                          stacklevel=2)
+                          stacklevel=3)
         elif not low <= kappa <= high:
             warnings.warn(f"EigenErosion: kappa = {kappa:.4g} m is outside the range "
                           f"{low:.4g} to {high:.4g} m of Appendix A (Eq A3) for h = {mpm.h:.4g} m",
-                          stacklevel=2)
+                          stacklevel=3)
         cls = _eigenmpm.Erosion2 if mpm.dim == 2 else _eigenmpm.Erosion3
         self.core = cls(Gc=self.Gc, alpha=self.alpha, kappa=kappa)
-        mpm.solver.setErosion(self.core)
-        mpm.physics[self.label] = self
         self._mpm = mpm
-        return mpm
-
-    def _release(self):
-        """Frees the erosion state (O.reset(), see engines._wrapReset)."""
-        self.core = _Released(f"the erosion state of EigenErosion {self.label!r}")
-        self.history, self._mpm, self._released = [], None, True
 
     def _action(self):
-        mpm = self.attach()
-        self.record(mpm)
+        mpm = findEngine(self.engine)
+        if not any(mpm is e for e in O.engines):
+            raise ValueError(f"EigenMPM: engine = MpmEngine {mpm.label!r} is invalid; allowed: an MpmEngine in "
+                             f"O.engines (EigenErosion {self.label!r} acts only on an engine of the scene)")
+        self.record(self.attach(mpm))
 
     # --- diagnostics ----------------------------------------------------------------------
     def dissipatedEnergy(self):
