@@ -86,7 +86,8 @@ def _table(params):
     rows = ["| name | default | unit | allowed | description |", "|---|---|---|---|---|"]
     for p in params:
         default = "*required*" if p.required else f"`{p.default!r}`"
-        rows.append(f"| `{p.name}` | {default} | {_cell(p.unit) or '-'} | {_cell(p.allowed())} | {_cell(p.doc)} |")
+        doc = f"{p.doc} {p.notes()}" if p.notes() else p.doc
+        rows.append(f"| `{p.name}` | {default} | {_cell(p.unit) or '-'} | {_cell(p.allowed())} | {_cell(doc)} |")
     return "\n".join(rows)
 
 
@@ -105,7 +106,9 @@ def page(cls, others):
            "Keyword arguments only" + (f"; {', '.join(f'`{n}`' for n in required)} required." if required
                                         else "; all have defaults.")
            + " A value outside the allowed range is refused before anything is built, with "
-             "`EigenMPM: <name> = <value> is invalid; allowed: <range>`.", ""]
+             "`EigenMPM: <name> = <value> is invalid; allowed: <range>`. An assignment afterwards "
+             f"(`{_instance(cls)}.<name> = <value>`) is checked the same way, and refused for a "
+             "parameter fixed once built.", ""]
     if example:
         out += ["## Example", "", "```python", example, "```", ""]
     out += ["## Description", "", _prose(description), "", "## Parameters", "", _table(cls.params), ""]

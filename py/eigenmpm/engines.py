@@ -6,12 +6,16 @@ back into the engine object (looked up through this module, not through ``__main
 namespace differs between ``yade script.py``, ``yade -x`` and plain Python).
 """
 import itertools
+import math
+import sys
+import warnings
 import weakref
 
 import numpy as np
 from yade import O, PyRunner
 
 from . import _eigenmpm
+from .materials import ElasticMaterial
 from .params import Param, apply, declare, takes, vec3
 
 # Engine objects by key, for their commands. Weak: an engine in O.engines is held by YADE (which
@@ -119,7 +123,13 @@ class VelocityBC:
 
     def _update(self, t):
         if callable(self.velocity):
-            self._engine.solver.setConditionVelocity(self.id, vec3(self.velocity(t), "velocity(t)"), 0.0)
+            v = vec3(self.velocity(t), "velocity(t)")
+            owner = f"velocity condition {self.label!r}"
+            if not all(math.isfinite(c) for c in v):
+                raise ValueError(f"EigenMPM: velocity(t) = {v!r} at t = {t!r} s is invalid; allowed: finite "
+                                 f"components ({owner})")
+            _planar(v, "velocity(t)", self._engine.dim, owner)
+            self._engine.solver.setConditionVelocity(self.id, v, 0.0)
 
 
 def _vector(t):
@@ -130,6 +140,13 @@ def _vector(t):
         return tuple(t)
 
 
+def _planar(v, name, dim, owner):
+    """Refuses a z component in 2D, where it would be ignored."""
+    if dim == 2 and v[2] != 0.0:
+        raise ValueError(f"EigenMPM: {name} = {tuple(v)!r} is invalid in 2D: the z component does not apply; "
+                         f"allowed: (x, y) or (x, y, 0) ({owner})")
+
+
 _SELECTION = "a predicate (yade.pack or a callable pred(x, pad)) or a list of ids"
 
 
@@ -138,6 +155,22 @@ def _isSelection(sel):
         return True
     ids = np.asarray(sel)
     return ids.ndim == 1 and (ids.size == 0 or np.issubdtype(ids.dtype, np.integer))
+
+
+# Arguments of fill and addPoints, checked as the declared ones are.
+_MATERIAL = Param("material", None, "", "the material of the points", kind="object", required=True,
+                  accepts="an ElasticMaterial", check=lambda m: isinstance(m, ElasticMaterial))
+_VELOCITY = Param("velocity", (0.0, 0.0, 0.0), "m/s", "initial velocity of the points")
+
+
+def _array(value, name, owner):
+    """value as an array of floats; TypeError naming it when it holds no numbers."""
+    if isinstance(value, str):
+        raise TypeError(f"EigenMPM: {name} = {value!r} is invalid; allowed: numbers ({owner})")
+    try:
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise TypeError(f"EigenMPM: {name} = {value!r} is invalid; allowed: numbers ({owner})") from None
 
 
 # Arguments shared by the velocity conditions (velocityBC and fix).
@@ -180,23 +213,24 @@ class MpmEngine(PyRunner):
 
     params = (
         Param("label", "mpm", "", "YADE label of the engine; it prefixes the keys of plotData()"),
-        Param("dim", 2, "", "spatial dimension (2D runs native 2D kernels)", choices=(2, 3)),
+        Param("dim", 2, "", "spatial dimension (2D runs native 2D kernels)", choices=(2, 3), fixed=True),
         Param("h", None, "m", "cell size of the background grid", kind="float", bounds="(0, inf)",
-              required=True),
+              required=True, fixed=True),
         Param("ppc", 2, "", "material points per cell per direction used by fill() and by the "
-                            "uGIMP particle half-width h/(2 ppc)", bounds="[1, 64]"),
+                            "uGIMP particle half-width h/(2 ppc)", bounds="[1, 64]", fixed=True),
         Param("shape", "uGIMP", "", "shape functions: 'uGIMP' (paper Eq 16) or 'linear' (standard MPM)",
-              choices=_SHAPES),
+              choices=_SHAPES, fixed=True),
         Param("thickness", 1.0, "m", "out-of-plane thickness of a 2D model (point volume = area x "
-                                     "thickness; forces and energies are for this thickness)",
-              bounds="(0, inf)"),
-        Param("gravity", (0.0, 0.0, 0.0), "m/s2", "body force per unit mass"),
+                                     "thickness; forces and energies are for this thickness); "
+                                     "not given in 3D", bounds="(0, inf)", fixed=True),
+        Param("gravity", (0.0, 0.0, 0.0), "m/s2", "body force per unit mass (no z component in 2D); "
+                                                 "may be changed between steps"),
         Param("domain", None, "m", "(lo, hi) corners of the grid; default: bounding box of the points "
-                                   "plus `padding` cells, fixed at the first step", kind="box"),
+                                   "plus `padding` cells, fixed at the first step", kind="box", fixed=True),
         Param("padding", 3, "cells", "cells added around the points when the grid is sized automatically",
-              bounds="[1, inf)"),
+              bounds="[1, inf)", fixed=True),
         Param("massCutoff", 1e-14, "", "nodes lighter than this fraction of the mean point mass carry "
-                                      "no velocity (small-mass cut-off)", bounds="[0, 1)"),
+                                      "no velocity (small-mass cut-off)", bounds="[0, 1)", fixed=True),
         Param("threads", None, "", "OpenMP threads; default O.numThreads (yade -j N)", kind="int",
               bounds="[1, inf)"),
     )
@@ -204,6 +238,9 @@ class MpmEngine(PyRunner):
     def __init__(self, **kw):
         PyRunner.__init__(self)
         apply(self, self.params, kw, "MpmEngine")
+        if self.dim == 3 and "thickness" in kw:
+            raise ValueError(f"EigenMPM: thickness = {self.thickness!r} is invalid in 3D: it is the "
+                             "out-of-plane thickness of a 2D model; allowed: leave it out (MpmEngine)")
         self.solver = _SOLVERS[(self.dim, self.shape.lower())](h=self.h, ppc=self.ppc, massCutoff=self.massCutoff,
                                                                padding=self.padding, gravity=self.gravity)
         if self.domain is not None:
@@ -215,6 +252,18 @@ class MpmEngine(PyRunner):
         self.physics = {}  # label -> physics engine acting on this solver (EigenErosion, ...)
         self._materials = {}
         self._started = False
+        self._cracksToCheck = []  # ids of cracks not yet checked against the material
+
+    @property
+    def gravity(self):
+        return tuple(self.solver.gravity) if "solver" in vars(self) else self._gravity
+
+    @gravity.setter
+    def gravity(self, g):  # the declaration has validated g (see params.declare)
+        _planar(g, "gravity", self.dim, "MpmEngine")
+        self._gravity = g
+        if "solver" in vars(self):
+            self.solver.gravity = g
 
     def _release(self):
         """Frees the solver and what refers to the scene (O.reset(), see _wrapReset)."""
@@ -223,24 +272,72 @@ class MpmEngine(PyRunner):
         self._released = True
 
     # --- specimen -------------------------------------------------------------------------
-    def material(self, mat):
-        """Solver id of an ElasticMaterial, registering it on first use."""
+    def material(self, mat, owner="MpmEngine.material"):
+        """Solver id of an ElasticMaterial, registering it on first use. Refused: a plane-stress
+        material in 3D, and one whose wave speed gives a critical time step h / c of 0 or infinity
+        at this cell size."""
+        _MATERIAL.validate(mat, owner)
+        if getattr(self, "_released", False):
+            self.solver._fail()
         key = id(mat)
         if key not in self._materials:
-            self._materials[key] = (mat, self.solver.addMaterial(float(mat.E), float(mat.nu),
-                                                                 float(mat.rho), bool(mat.planeStress),
-                                                                 str(mat.split)))
+            if mat.planeStress and self.dim == 3:
+                raise ValueError(f"EigenMPM: planeStress = True is invalid in 3D (MpmEngine {self.label!r} has "
+                                 f"dim = 3); allowed: False, plane stress is a 2D model ({mat!r})")
+            args = (mat.E, mat.nu, mat.rho, mat.planeStress, mat.split)
+            # The law's own wave speed, from a scratch solver: a refused material must not stay
+            # in this one, where it would set the critical time step.
+            scratch = type(self.solver)(h=self.h, ppc=1, massCutoff=0.0, padding=1, gravity=(0.0, 0.0, 0.0))
+            c = scratch.materialInfo(scratch.addMaterial(*args))["waveSpeed"]
+            dt = self.h / c
+            if not (math.isfinite(dt) and dt >= sys.float_info.min):
+                low, high = c * sys.float_info.min, c * sys.float_info.max
+                allowed = f"h >= {low:.3g} m" if math.isinf(high) else f"{low:.3g} m <= h < {high:.3g} m"
+                raise ValueError(f"EigenMPM: h = {self.h!r} is invalid with this material (wave speed c = {c:.6g} m/s): "
+                                 f"the critical time step h / c would be {dt!r} s; allowed: {allowed} "
+                                 f"(MpmEngine {self.label!r}, {mat!r})")
+            self._materials[key] = (mat, self.solver.addMaterial(*args))
         return self._materials[key][1]
 
     def addPoints(self, positions, material, volumes, velocities=None):
-        """Adds points at `positions` (n x 3, m) with `volumes` (m^3; in 2D area x thickness).
+        """Adds points at `positions` (n x 3, or n x 2 in 2D; m) with `volumes` (one value or n
+        values, m^3; in 2D area x thickness) and `velocities` (one vector or n x 3, m/s).
         Returns the ids of the new points."""
-        pos = np.ascontiguousarray(np.asarray(positions, dtype=float).reshape(-1, 3))
+        owner = "MpmEngine.addPoints"
+        pos = _array(positions, "positions", owner)
+        if pos.ndim == 1 and pos.size in (2, 3):
+            pos = pos[None, :]
+        if pos.ndim != 2 or pos.shape[1] not in (self.dim, 3):
+            raise ValueError(f"EigenMPM: positions of shape {pos.shape} is invalid; allowed: an n x 3 array"
+                             f"{' (or n x 2)' if self.dim == 2 else ''} of coordinates ({owner})")
         n = len(pos)
-        vol = np.ascontiguousarray(np.broadcast_to(np.asarray(volumes, dtype=float), (n,)))
-        vel = np.zeros((n, 3)) if velocities is None else np.asarray(velocities, dtype=float)
+        if pos.shape[1] == 2:
+            pos = np.hstack([pos, np.zeros((n, 1))])
+        vol = _array(volumes, "volumes", owner)
+        if vol.ndim > 1 or vol.size not in (1, n):
+            raise ValueError(f"EigenMPM: volumes of shape {vol.shape} is invalid; allowed: one volume or {n} "
+                             f"(one per point) ({owner})")
+        vel = np.zeros(3) if velocities is None else _array(velocities, "velocities", owner)
+        if vel.shape not in ((3,), (self.dim,), (n, 3), (n, self.dim)):
+            raise ValueError(f"EigenMPM: velocities of shape {vel.shape} is invalid; allowed: one vector or n x 3 "
+                             f"with n = {n} ({owner})")
+        if vel.shape[-1] == 2:
+            vel = np.concatenate([vel, np.zeros(vel.shape[:-1] + (1,))], axis=-1)
+        if self.dim == 2 and np.any(vel[..., 2] != 0):
+            raise ValueError("EigenMPM: velocities with a non-zero z component are invalid in 2D: it does not "
+                             f"apply; allowed: (vx, vy, 0) ({owner})")
+        mid = self.material(material, owner)
+        rho = material.rho
+        with np.errstate(over="ignore"):
+            mass = rho * vol
+        if vol.size and not np.all(np.isfinite(mass)):
+            raise ValueError(f"EigenMPM: volumes up to {float(vol.max())!r} m^3 are invalid with rho = {rho!r} "
+                             f"kg/m3: the point mass overflows; allowed: volume < {sys.float_info.max / rho:.3g} "
+                             f"m^3 ({owner})")
+        pos = np.ascontiguousarray(pos)
+        vol = np.ascontiguousarray(np.broadcast_to(vol.reshape(-1), (n,)))
         vel = np.ascontiguousarray(np.broadcast_to(vel, (n, 3)))
-        first = self.solver.addPoints(pos, vel, vol, self.material(material))
+        first = self.solver.addPoints(pos, vel, vol, mid)
         return np.arange(first, first + n)
 
     def fill(self, predicate, material, velocity=(0, 0, 0)):
@@ -249,12 +346,21 @@ class MpmEngine(PyRunner):
         cell fractions (i + 1/2)/ppc). In 2D the predicate is evaluated in the plane z = middle of
         its bounding box (z = 0 if unbounded). Returns the ids of the new points."""
         from .builders import latticePoints
+        owner = "MpmEngine.fill"
+        _MATERIAL.validate(material, owner)
+        velocity = _VELOCITY.validate(velocity, owner)
+        _planar(velocity, "velocity", self.dim, owner)
+        vol = (self.h / self.ppc) ** self.dim * (self.thickness if self.dim == 2 else 1.0)
+        if not (math.isfinite(vol) and vol >= sys.float_info.min):
+            raise ValueError(f"EigenMPM: h = {self.h!r} is invalid with ppc = {self.ppc}"
+                             f"{f', thickness = {self.thickness!r}' if self.dim == 2 else ''}: the point volume "
+                             f"(h / ppc)^{self.dim}{' x thickness' if self.dim == 2 else ''} = {vol!r} m^3; "
+                             f"allowed: a volume that is finite and not below {sys.float_info.min:.3g} ({owner})")
         pos = latticePoints(predicate, self.h, self.ppc, self.dim)
         if len(pos) == 0:
             raise ValueError(f"EigenMPM: the predicate {predicate!r} holds no lattice point at h = "
                              f"{self.h}, ppc = {self.ppc}; check its extent")
-        vol = (self.h / self.ppc) ** self.dim * (self.thickness if self.dim == 2 else 1.0)
-        return self.addPoints(pos, material, vol, vec3(velocity, "velocity"))
+        return self.addPoints(pos, material, vol, velocity)
 
     def pointsIn(self, predicate, pad=0.0):
         """Ids of the points whose current position satisfies ``predicate(x, pad)``."""
@@ -292,9 +398,16 @@ class MpmEngine(PyRunner):
         nodes = [] if region is None else self._indices(region, self.nodesIn)
         pts = [] if points is None else self._indices(points, self.pointsIn)
         if len(nodes) == 0 and len(pts) == 0:
-            raise ValueError(f"EigenMPM: velocityBC {label!r} selects no node and no point; check the region")
+            which, sel = ("region", region) if region is not None else ("points", points)
+            raise ValueError(f"EigenMPM: {which} = {sel!r} selects no {'node' if region is not None else 'point'} "
+                             f"of MpmEngine {self.label!r}; allowed: a selection holding one at least (check its "
+                             "extent) (MpmEngine.velocityBC)")
         mask = _mask(components or "xyz"[:self.dim], self.dim)
         v0 = (0.0, 0.0, 0.0) if callable(velocity) else velocity
+        _planar(v0, "velocity", self.dim, "MpmEngine.velocityBC")
+        if label in self.bcs:
+            raise ValueError(f"EigenMPM: label = {label!r} is invalid; allowed: a label no other condition of "
+                             f"MpmEngine {self.label!r} has (taken: {', '.join(map(repr, self.bcs))})")
         cid = self.solver.addVelocityCondition([int(i) for i in nodes], [int(i) for i in pts], mask, v0, rampTime)
         label = label or f"bc{cid}"
         bc = VelocityBC(self, cid, label, velocity, rampTime)
@@ -311,6 +424,7 @@ class MpmEngine(PyRunner):
     def traction(self, points, traction, rampTime, layer):
         """Applies a traction on boundary points as the nodal force N t V_p / layer of paper Eq 28.
         Returns the id of the condition."""
+        _planar(traction, "traction", self.dim, "MpmEngine.traction")
         pts = self._indices(points, self.pointsIn)
         if len(pts) == 0:
             raise ValueError("EigenMPM: traction selects no point; check the predicate")
@@ -322,8 +436,26 @@ class MpmEngine(PyRunner):
     def crack(self, vertices):
         """Adds a pre-existing crack (phantom nodes, paper Section 3.3.1). An edge notch starts on
         (or beyond) the body's boundary, an interior crack inside it; several cracks are allowed.
-        The crack then moves with the material. Returns the crack id."""
-        return self.solver.addCrack(vertices)
+        The crack then moves with the material. Returns the crack id. A crack that passes through
+        no point's cell (h / ppc wide) gets a warning, at the first step if it is added before."""
+        cid = self.solver.addCrack(vertices)
+        self._cracksToCheck.append(cid)
+        if self._started:
+            self._checkCracks()
+        return cid
+
+    def _checkCracks(self):
+        """Warns of each crack to check that cuts no material: none of the points' cells (of
+        width h / ppc about each point) meets it."""
+        x = self.solver.positions()[:, :self.dim]
+        reach = 0.5 * self.h / self.ppc * (1 + 1e-9)
+        for cid in self._cracksToCheck:
+            v = np.array([list(p) for p in self.solver.crackVertices(cid)])[:, :self.dim]
+            if len(x) == 0 or not _nearCrack(x, v, reach).any():
+                warnings.warn(f"EigenMPM: crack {cid} with vertices {v.tolist()} cuts no material: no point of "
+                              f"MpmEngine {self.label!r} lies within {reach:.4g} m (half a point spacing) of "
+                              "it, so it changes nothing; check its coordinates", UserWarning, stacklevel=2)
+        self._cracksToCheck = []
 
     def crackVertices(self, crackId=0):
         """Current vertices of a crack (they move with the material)."""
@@ -356,7 +488,9 @@ class MpmEngine(PyRunner):
 
     def _action(self):
         engines = self._syncPhysics()
-        self._started = True
+        if not self._started:
+            self._started = True
+            self._checkCracks()
         t = O.time
         self.solver.time = t
         for bc in self.bcs.values():
@@ -420,3 +554,37 @@ def callEvery(function, iterPeriod=1, virtPeriod=0.0, label=""):
     r = _Call(function, label)
     r.iterPeriod, r.virtPeriod = int(iterPeriod), float(virtPeriod)
     return r
+
+
+def _nearCrack(x, v, reach):
+    """Mask of the points x (n x dim) within `reach` of the crack with vertices v: a polyline in
+    2D, a planar polygon in 3D."""
+    if x.shape[1] == 2:
+        near = np.zeros(len(x), bool)
+        for a, b in zip(v[:-1], v[1:]):
+            ab = b - a
+            t = np.clip((x - a) @ ab / max(ab @ ab, 1e-300), 0.0, 1.0)
+            near |= np.sum((x - a - t[:, None] * ab) ** 2, axis=1) <= reach * reach
+        return near
+    # 3D: the normal by Newell's method; points near the plane whose projection lies inside the
+    # polygon, or near one of its edges.
+    n = np.sum([np.cross(p, q) for p, q in zip(v, np.roll(v, -1, axis=0))], axis=0)
+    n = n / max(np.linalg.norm(n), 1e-300)
+    e1 = v[1] - v[0]
+    e1 = e1 / max(np.linalg.norm(e1), 1e-300)
+    e2 = np.cross(n, e1)
+    near = np.abs((x - v[0]) @ n) <= reach
+    u, w = (x - v[0]) @ e1, (x - v[0]) @ e2
+    pu, pw = (v - v[0]) @ e1, (v - v[0]) @ e2
+    inside = np.zeros(len(x), bool)
+    for k in range(len(v)):
+        u0, w0, u1, w1 = pu[k], pw[k], pu[k - 1], pw[k - 1]
+        crosses = (w0 > w) != (w1 > w)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            inside ^= crosses & (u < u0 + (w - w0) * (u1 - u0) / (w1 - w0))
+    edges = np.zeros(len(x), bool)
+    for a, b in zip(v, np.roll(v, -1, axis=0)):
+        ab = b - a
+        t = np.clip((x - a) @ ab / max(ab @ ab, 1e-300), 0.0, 1.0)
+        edges |= np.sum((x - a - t[:, None] * ab) ** 2, axis=1) <= reach * reach
+    return (near & inside) | edges

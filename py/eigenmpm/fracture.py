@@ -26,6 +26,12 @@ def linked(x, seed, radius):
     return seen
 
 
+def _planarOrigin(origin, dim, label):
+    if dim == 2 and origin[2] != 0.0:
+        raise ValueError(f"EigenMPM: origin = {tuple(origin)!r} is invalid in 2D: the z component does not apply; "
+                         f"allowed: (x, y) or (x, y, 0) (EigenErosion {label!r})")
+
+
 def kappaRange(h, dim):
     """Appendix A (Eq A3): the sensible range of kappa for cell size h, as (low, high)."""
     f = math.sqrt(2.0) if dim == 2 else 6.0 ** (1.0 / 3.0)
@@ -54,16 +60,17 @@ class EigenErosion(PyRunner):
 
     params = (
         Param("label", "erosion", "", "YADE label of the engine; it prefixes the keys of plotData()"),
-        ENGINE,
+        Param(ENGINE.name, ENGINE.default, ENGINE.unit, ENGINE.doc, kind=ENGINE.kind, accepts=ENGINE.accepts,
+              check=ENGINE.checker, fixed=True),
         Param("Gc", None, "J/m2", "critical energy release rate", kind="float", bounds="(0, inf)",
-              required=True),
-        Param("alpha", 1.5, "", "normalising constant of Eq 23 (paper: 1 to 2)", bounds="(0, inf)"),
+              required=True, fixed=True),
+        Param("alpha", 1.5, "", "normalising constant of Eq 23 (paper: 1 to 2)", bounds="(0, inf)", fixed=True),
         Param("kappa", None, "m", "neighbourhood radius (give kappa or kappaOverH)", kind="float",
-              bounds="(0, inf)"),
+              bounds="(0, inf)", fixed=True),
         Param("kappaOverH", None, "", "neighbourhood radius as a multiple of the cell size h", kind="float",
-              bounds="(0, inf)"),
+              bounds="(0, inf)", fixed=True),
         Param("origin", None, "m", "crack origin for tip tracking (e.g. the pre-crack tip); "
-                                   "default: the first eroded point", kind="vector"),
+                                   "default: the first eroded point", kind="vector", fixed=True),
         Param("tipWindow", None, "s", "erosions within this time before a record can be tips, and "
                                       "the window of the tip speed; default 50 O.dt", kind="float",
               bounds="(0, inf)"),
@@ -124,6 +131,8 @@ class EigenErosion(PyRunner):
                 raise ValueError(f"EigenMPM: EigenErosion {self.label!r} was built for MpmEngine "
                                  f"{self._mpm.label!r}, not {mpm.label!r}; build one per engine")
             return
+        if self.origin is not None:
+            _planarOrigin(self.origin, mpm.dim, self.label)
         kappa = self.kappa if self.kappa is not None else self.kappaOverH * mpm.h
         low, high = kappaRange(mpm.h, mpm.dim)
         spacing = mpm.h / mpm.ppc
