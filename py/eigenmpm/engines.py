@@ -293,8 +293,8 @@ class MpmEngine(PyRunner):
             if not (math.isfinite(dt) and dt >= sys.float_info.min):
                 low, high = c * sys.float_info.min, c * sys.float_info.max
                 allowed = f"h >= {low:.3g} m" if math.isinf(high) else f"{low:.3g} m <= h < {high:.3g} m"
-                raise ValueError(f"EigenMPM: h = {self.h!r} is invalid with this material (wave speed c = {c:.6g} m/s): "
-                                 f"the critical time step h / c would be {dt!r} s; allowed: {allowed} "
+                raise ValueError(f"EigenMPM: h = {self.h!r} is invalid with this material (wave speed c = "
+                                 f"{c:.6g} m/s): the critical time step h / c would be {dt!r} s; allowed: {allowed} "
                                  f"(MpmEngine {self.label!r}, {mat!r})")
             self._materials[key] = (mat, self.solver.addMaterial(*args))
         return self._materials[key][1]
