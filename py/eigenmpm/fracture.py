@@ -250,7 +250,7 @@ class EigenErosion(PyRunner):
             return np.array([]), np.array([])
         t = np.array([h[0] for h in self.history])
         d = np.array([h[3] for h in self.history])
-        w = window or self.tipWindow or 5 * (t[1] - t[0])
+        w = window or self.tipSpeedWindow()
         times, speeds = [], []
         j = 0
         for i in range(1, len(t)):
@@ -260,6 +260,15 @@ class EigenErosion(PyRunner):
                 times.append(0.5 * (t[i] + t[j]))
                 speeds.append((d[i] - d[j]) / (t[i] - t[j]))
         return np.array(times), np.array(speeds)
+
+    def tipSpeedWindow(self):
+        """The window of :meth:`tipSpeed` by default, and so of ``max_tip_speed_m_s`` in
+        :meth:`summary`, s: tipWindow, or 5 record periods (None before two records)."""
+        if self.tipWindow:
+            return self.tipWindow
+        if len(self.history) < 2:
+            return None
+        return 5 * (self.history[1][0] - self.history[0][0])
 
     def initiationTime(self):
         """Time of the first erosion, s (None before)."""
@@ -277,13 +286,16 @@ class EigenErosion(PyRunner):
 
     def summary(self):
         """Scalars for summary.json: dissipated energy (J), eroded count, initiation time (us),
-        maximum tip speed (m/s) and the current tips (m)."""
+        maximum tip speed (m/s) over windows of tip_speed_window_us (:meth:`tipSpeedWindow`; a
+        figure of tipSpeed() with the same window shows the same maximum) and the current tips (m)."""
         _, v = self.tipSpeed()
+        w = self.tipSpeedWindow()
         t0 = self.initiationTime()
         return {"dissipated_energy_J": self.dissipatedEnergy(), "eroded_count": self.erodedCount(),
                 "initiation_time_us": None if t0 is None else 1e6 * t0,
                 "branching_time_us": None if self.branchingTime() is None else 1e6 * self.branchingTime(),
                 "max_tip_speed_m_s": float(np.max(v)) if len(v) else 0.0,
+                "tip_speed_window_us": None if w is None else 1e6 * w,
                 "crack_front_distance_m": self.history[-1][3] if self.history else 0.0,
                 "crack_tips_m": self.history[-1][4] if self.history else []}
 

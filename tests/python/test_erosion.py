@@ -239,3 +239,22 @@ def test_two_erosion_engines_for_one_solver_are_refused():
     O.engines = [mpm, er, em.EigenErosion(engine=mpm, Gc=1.0, kappaOverH=1.1)]
     with pytest.raises(RuntimeError, match="one EigenErosion per MpmEngine in O.engines"):
         O.run(1, True)
+
+
+def test_summary_and_tip_speed_figure_share_one_window():
+    class Core:
+        kappa, dissipatedEnergy, erodedCount = 0.001, 0.0, 3
+
+        def events(self):
+            return [(0, 1, 1e-6)]
+
+    er = em.EigenErosion(Gc=1.0, kappa=0.001)
+    er.core = Core()
+    rng = np.random.default_rng(1)
+    front = np.cumsum(rng.uniform(0, 2e-4, 60))  # a front advancing by uneven steps
+    er.history = [(1e-7 * i, 0.0, 3, float(d), []) for i, d in enumerate(front)]
+    t, v = er.tipSpeed()  # what crack_branching.py draws in tip_speed.png
+    s = er.summary()
+    assert er.tipSpeedWindow() == pytest.approx(5e-7) and s["tip_speed_window_us"] == pytest.approx(0.5)
+    assert s["max_tip_speed_m_s"] == float(np.max(v))
+    assert np.max(er.tipSpeed(window=1e-6)[1]) != s["max_tip_speed_m_s"]  # another window differs
