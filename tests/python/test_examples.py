@@ -81,3 +81,15 @@ def test_lpanel_examples_read_the_experiment_shipped_with_them(name, monkeypatch
     d, lower, upper = (band[:, 0], band[:, 1], band[:, 2]) if name == "lshaped_panel" else band[1:]
     assert len(d) == 10 and (lower <= upper).all()
     assert (lower.max(), upper.max(), d[upper.argmax()]) == (6.7, 7.6, 0.2)  # the peak band of the data
+
+
+def test_make_demo_runs_the_quick_branching_plate_and_the_readme_shows_its_damage_map():
+    makefile = open(os.path.join(ROOT, "Makefile")).read()
+    recipe = makefile.split("\ndemo: build\n")[1].split("\n\n")[0]
+    assert "yade -n -x examples/crack_branching.py --quick --out out/demo" in recipe
+    for name in ("damage.png", "energy.png", "tip_speed.png", "summary.json"):  # what the example writes
+        assert f"out/demo/{name}" in recipe and f"DIR/{name}" in open(os.path.join(ROOT, "examples",
+                                                                                  "crack_branching.py")).read()
+    readme = open(os.path.join(ROOT, "README.md")).read()
+    assert "](doc/img/demo_branching_damage.png)" in readme
+    assert os.path.getsize(os.path.join(ROOT, "doc", "img", "demo_branching_damage.png")) < 100_000
