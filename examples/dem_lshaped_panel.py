@@ -50,19 +50,14 @@ A, THICKNESS = 0.25, 0.1
 
 
 def experiment():
-    """Winkler's experimental band (shared/reference/winkler_lpanel_experiment.csv) as
-    (label, displacement mm, lower kN, upper kN), or None where the file is not found."""
-    root = os.path.dirname(os.path.dirname(os.path.abspath(sys.argv[0])))
-    for base in (os.path.join(root, "..", "shared", "reference"), os.path.join(root, "shared", "reference")):
-        path = os.path.join(base, "winkler_lpanel_experiment.csv")
-        if os.path.exists(path):
-            rows = [r.split(",") for r in open(path).read().splitlines() if r and not r.startswith("#")]
-            try:
-                d = np.array([[float(c) for c in r] for r in rows[1:]])
-            except ValueError:
-                return None
-            return ("experiment (Winkler)", d[:, 0], d[:, 1], d[:, 2])
-    return None
+    """Winkler's experimental band, shipped with the examples
+    (examples/data/winkler_lpanel_experiment.csv), as (label, displacement mm, lower kN, upper kN)."""
+    # Under `yade -x` __file__ names yade itself; sys.argv[0] is this script.
+    path = os.path.join(os.path.dirname(os.path.abspath(sys.argv[0])), "data", "winkler_lpanel_experiment.csv")
+    with open(path) as f:
+        rows = [r.split(",") for r in f.read().splitlines() if r and not r.startswith("#")]
+    d = np.array([[float(c) for c in r] for r in rows[1:]])  # after the line of column names
+    return ("experiment (Winkler)", d[:, 0], d[:, 1], d[:, 2])
 
 
 def build(o):

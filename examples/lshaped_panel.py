@@ -49,18 +49,16 @@ PAPER_TABLE1 = {(1.0, 0.9): (0.284, 17.300), (1.0, 1.1): (0.284, 17.230), (1.0, 
                 (1.5, 0.9): (0.245, 15.100), (1.5, 1.1): (0.245, 15.082), (1.5, 1.25): (0.251, 15.394),
                 (2.0, 0.9): (0.222, 13.737), (2.0, 1.1): (0.222, 13.758), (2.0, 1.25): (0.223, 14.046)}
 PAPER_TABLE2_LOAD = {10.0: 16.14, 5.0: 15.08, 2.5: 14.50}
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(sys.argv[0])))
+# Under `yade -x` __file__ names yade itself; sys.argv[0] is this script.
+DATA = os.path.join(os.path.dirname(os.path.abspath(sys.argv[0])), "data")
 
 
 def experiment():
-    """The experimental load-displacement band (reference/winkler_lpanel_experiment.csv)."""
-    for base in (os.path.join(ROOT, "..", "shared", "reference"), os.path.join(ROOT, "shared", "reference")):
-        path = os.path.join(base, "winkler_lpanel_experiment.csv")
-        if os.path.exists(path):
-            with open(path) as f:
-                rows = [r for r in csv.reader(f) if r and not r[0].startswith("#")]
-            return rows
-    return None
+    """Winkler's experimental load-displacement band, shipped with the examples
+    (examples/data/winkler_lpanel_experiment.csv), as rows (displacement mm, lower kN, upper kN)."""
+    with open(os.path.join(DATA, "winkler_lpanel_experiment.csv")) as f:
+        rows = [r for r in csv.reader(f) if r and not r[0].startswith("#")]
+    return np.array([[float(c) for c in r] for r in rows[1:]])  # after the line of column names
 
 
 def main(argv):
@@ -134,13 +132,8 @@ def main(argv):
     fig, ax = plt.subplots(figsize=(7, 4.5))
     ax.plot(u * 1e3, F / 1e3, color="0.7", lw=0.6, label="EigenMPM, reaction")
     ax.plot(u * 1e3, Fs / 1e3, "b-", label="EigenMPM, smoothed")
-    exp = experiment()
-    if exp:
-        try:
-            data = np.array([[float(c) for c in r] for r in exp[1:]])
-            ax.fill_between(data[:, 0], data[:, 1], data[:, 2], color="orange", alpha=0.4, label="experiment (Winkler)")
-        except (ValueError, IndexError):
-            pass
+    band = experiment()
+    ax.fill_between(band[:, 0], band[:, 1], band[:, 2], color="orange", alpha=0.4, label="experiment (Winkler)")
     paper = PAPER_TABLE1.get((o["alpha"], o["kappaOverH"])) if o["h_mm"] == 5.0 else None
     if paper:
         ax.plot(*paper, "k*", ms=12, label="paper, Table 1 (critical point)")
@@ -154,6 +147,7 @@ def main(argv):
     ax.legend()
     fig.tight_layout()
     fig.savefig(os.path.join(out, "load_displacement.png"), dpi=130)
+    plt.close(fig)
     plots.damageMap(mpm, os.path.join(out, "damage.png"))
     print(json.dumps({k: v for k, v in summary.items() if k != "parameters"}, indent=2))
     print("outputs in", out)

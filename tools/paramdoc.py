@@ -152,17 +152,22 @@ def _syntax(entry):
     else:
         first = ", ".join(f"`{p.name}`" for p in entry.params[:positional])
         how = f"{first} by position or keyword, the others by keyword only"
-    return (how + (f"; {', '.join(required)} required." if required else "; all have defaults.")
+    text = (how + (f"; {', '.join(required)} required." if required else "; all have defaults.")
             + " A value outside the allowed range is refused before anything is "
             + ("built" if entry.isClass else "done")
             + ", with `EigenMPM: <name> = <value> is invalid; allowed: <range>`.")
+    if entry.isClass and getattr(entry.obj, "__setattr__", None) is not object.__setattr__:
+        text += (f" An assignment afterwards (`{_instance(entry)}.<name> = <value>`) is checked the same "
+                 "way, and refused for a parameter fixed once built.")
+    return text
 
 
 def _table(params):
     rows = ["| name | default | unit | allowed | description |", "|---|---|---|---|---|"]
     for p in params:
         default = "*required*" if p.required else f"`{p.default!r}`"
-        rows.append(f"| `{p.name}` | {default} | {_cell(p.unit) or '-'} | {_cell(p.allowed())} | {_cell(p.doc)} |")
+        doc = f"{p.doc} {p.notes()}" if p.notes() else p.doc
+        rows.append(f"| `{p.name}` | {default} | {_cell(p.unit) or '-'} | {_cell(p.allowed())} | {_cell(doc)} |")
     return "\n".join(rows)
 
 

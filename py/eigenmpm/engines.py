@@ -6,14 +6,21 @@ back into the engine object (looked up through this module, not through ``__main
 namespace differs between ``yade script.py``, ``yade -x`` and plain Python).
 """
 import itertools
+import math
+import sys
+import warnings
+import weakref
 
 import numpy as np
 from yade import O, PyRunner
 
 from . import _eigenmpm
+from .materials import ElasticMaterial
 from .params import Param, apply, declare, takes, vec3
 
-_registry = {}
+# Engine objects by key, for their commands. Weak: an engine in O.engines is held by YADE (which
+# holds the Python object of a Python subclass), one that no one holds is freed.
+_registry = weakref.WeakValueDictionary()
 _keys = itertools.count()
 COMMAND_PREFIX = "import eigenmpm.engines as _m; _m._registry["
 
@@ -34,6 +41,45 @@ def registered(runner):
         return _registry.get(int(command[len(COMMAND_PREFIX):].split("]", 1)[0]))
     except ValueError:
         return None
+
+
+class _Released:
+    """What an engine holds in place of its solver (or erosion state) once O.reset() freed it:
+    any use says so instead of failing obscurely."""
+
+    def __init__(self, what):
+        object.__setattr__(self, "_what", what)
+
+    def _fail(self, *_):
+        raise RuntimeError(f"EigenMPM: {self._what} was freed by O.reset(); read the results before "
+                           "O.reset(), or build the scene again")
+
+    __getattr__ = __setattr__ = __bool__ = __len__ = __iter__ = __call__ = _fail
+
+
+def _wrapReset():
+    """Makes O.reset() free our engines of the scene it ends. YADE keeps every Python engine that
+    was ever assigned to O.engines alive (one reference per assignment, and its label in
+    builtins), so the engines cannot be freed; their heavy state (the solver, the erosion state)
+    is released instead (``_release``). Released: the engines in O.engines at the reset and those
+    that stepped."""
+    from yade.wrapper import Omega
+    original = getattr(Omega.reset, "_eigenmpmOriginal", Omega.reset)
+
+    def reset(self, *args, **kwargs):
+        scene = {id(e) for e in O.engines}
+        ending = [e for e in list(_registry.values())
+                  if hasattr(e, "_release") and (id(e) in scene or getattr(e, "_started", False))]
+        original(self, *args, **kwargs)
+        for e in ending:
+            e._release()
+
+    reset._eigenmpmOriginal = original
+    reset.__doc__ = original.__doc__
+    Omega.reset = reset
+
+
+_wrapReset()
 
 
 def mpmEngines():
@@ -79,7 +125,9 @@ class VelocityBC:
     """
 
     def __init__(self, engine, cid, label, velocity, rampTime):
-        self._engine, self.id, self.label = engine, cid, label
+        # Weak: the engine holds its conditions, and a reference cycle through a YADE engine is
+        # never collected (Boost.Python does not show the engine's attributes to the collector).
+        self._engine, self.id, self.label = weakref.proxy(engine), cid, label
         self.velocity, self.rampTime = velocity, rampTime
 
     @property
@@ -88,7 +136,13 @@ class VelocityBC:
 
     def _update(self, t):
         if callable(self.velocity):
-            self._engine.solver.setConditionVelocity(self.id, vec3(self.velocity(t), "velocity(t)"), 0.0)
+            v = vec3(self.velocity(t), "velocity(t)")
+            owner = f"velocity condition {self.label!r}"
+            if not all(math.isfinite(c) for c in v):
+                raise ValueError(f"EigenMPM: velocity(t) = {v!r} at t = {t!r} s is invalid; allowed: finite "
+                                 f"components ({owner})")
+            _planar(v, "velocity(t)", self._engine.dim, owner)
+            self._engine.solver.setConditionVelocity(self.id, v, 0.0)
 
 
 def _vector(t):
@@ -99,6 +153,13 @@ def _vector(t):
         return tuple(t)
 
 
+def _planar(v, name, dim, owner):
+    """Refuses a z component in 2D, where it would be ignored."""
+    if dim == 2 and v[2] != 0.0:
+        raise ValueError(f"EigenMPM: {name} = {tuple(v)!r} is invalid in 2D: the z component does not apply; "
+                         f"allowed: (x, y) or (x, y, 0) ({owner})")
+
+
 _SELECTION = "a predicate (yade.pack or a callable pred(x, pad)) or a list of ids"
 
 
@@ -107,6 +168,22 @@ def _isSelection(sel):
         return True
     ids = np.asarray(sel)
     return ids.ndim == 1 and (ids.size == 0 or np.issubdtype(ids.dtype, np.integer))
+
+
+# Arguments of fill and addPoints, checked as the declared ones are.
+_MATERIAL = Param("material", None, "", "the material of the points", kind="object", required=True,
+                  accepts="an ElasticMaterial", check=lambda m: isinstance(m, ElasticMaterial))
+_VELOCITY = Param("velocity", (0.0, 0.0, 0.0), "m/s", "initial velocity of the points")
+
+
+def _array(value, name, owner):
+    """value as an array of floats; TypeError naming it when it holds no numbers."""
+    if isinstance(value, str):
+        raise TypeError(f"EigenMPM: {name} = {value!r} is invalid; allowed: numbers ({owner})")
+    try:
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise TypeError(f"EigenMPM: {name} = {value!r} is invalid; allowed: numbers ({owner})") from None
 
 
 # Arguments shared by the velocity conditions (velocityBC and fix).
@@ -149,23 +226,24 @@ class MpmEngine(PyRunner):
 
     params = (
         Param("label", "mpm", "", "YADE label of the engine; it prefixes the keys of plotData()"),
-        Param("dim", 2, "", "spatial dimension (2D runs native 2D kernels)", choices=(2, 3)),
+        Param("dim", 2, "", "spatial dimension (2D runs native 2D kernels)", choices=(2, 3), fixed=True),
         Param("h", None, "m", "cell size of the background grid", kind="float", bounds="(0, inf)",
-              required=True),
+              required=True, fixed=True),
         Param("ppc", 2, "", "material points per cell per direction used by fill() and by the "
-                            "uGIMP particle half-width h/(2 ppc)", bounds="[1, 64]"),
+                            "uGIMP particle half-width h/(2 ppc)", bounds="[1, 64]", fixed=True),
         Param("shape", "uGIMP", "", "shape functions: 'uGIMP' (paper Eq 16) or 'linear' (standard MPM)",
-              choices=_SHAPES),
+              choices=_SHAPES, fixed=True),
         Param("thickness", 1.0, "m", "out-of-plane thickness of a 2D model (point volume = area x "
-                                     "thickness; forces and energies are for this thickness)",
-              bounds="(0, inf)"),
-        Param("gravity", (0.0, 0.0, 0.0), "m/s2", "body force per unit mass"),
+                                     "thickness; forces and energies are for this thickness); "
+                                     "not given in 3D", bounds="(0, inf)", fixed=True),
+        Param("gravity", (0.0, 0.0, 0.0), "m/s2", "body force per unit mass (no z component in 2D); "
+                                                 "may be changed between steps"),
         Param("domain", None, "m", "(lo, hi) corners of the grid; default: bounding box of the points "
-                                   "plus `padding` cells, fixed at the first step", kind="box"),
+                                   "plus `padding` cells, fixed at the first step", kind="box", fixed=True),
         Param("padding", 3, "cells", "cells added around the points when the grid is sized automatically",
-              bounds="[1, inf)"),
+              bounds="[1, inf)", fixed=True),
         Param("massCutoff", 1e-14, "", "nodes lighter than this fraction of the mean point mass carry "
-                                      "no velocity (small-mass cut-off)", bounds="[0, 1)"),
+                                      "no velocity (small-mass cut-off)", bounds="[0, 1)", fixed=True),
         Param("threads", None, "", "OpenMP threads; default O.numThreads (yade -j N)", kind="int",
               bounds="[1, inf)"),
     )
@@ -173,6 +251,9 @@ class MpmEngine(PyRunner):
     def __init__(self, **kw):
         PyRunner.__init__(self)
         apply(self, self.params, kw, "MpmEngine")
+        if self.dim == 3 and "thickness" in kw:
+            raise ValueError(f"EigenMPM: thickness = {self.thickness!r} is invalid in 3D: it is the "
+                             "out-of-plane thickness of a 2D model; allowed: leave it out (MpmEngine)")
         self.solver = _SOLVERS[(self.dim, self.shape.lower())](h=self.h, ppc=self.ppc, massCutoff=self.massCutoff,
                                                                padding=self.padding, gravity=self.gravity)
         if self.domain is not None:
@@ -181,32 +262,98 @@ class MpmEngine(PyRunner):
         self.command = _register(self)
         self.bcs = {}
         self.recorders = []
-        self.physics = {}  # label -> attached physics engine (EigenErosion, ...)
+        self.physics = {}  # label -> physics engine acting on this solver (EigenErosion, ...)
         self._materials = {}
         self._started = False
         self._lastIter = None
         # Where each point was added (m), by point id: output measures displacement from it.
         self.referencePositions = np.zeros((0, 3))
+        self._cracksToCheck = []  # ids of cracks not yet checked against the material
+
+    @property
+    def gravity(self):
+        return tuple(self.solver.gravity) if "solver" in vars(self) else self._gravity
+
+    @gravity.setter
+    def gravity(self, g):  # the declaration has validated g (see params.declare)
+        _planar(g, "gravity", self.dim, "MpmEngine")
+        self._gravity = g
+        if "solver" in vars(self):
+            self.solver.gravity = g
+
+    def _release(self):
+        """Frees the solver and what refers to the scene (O.reset(), see _wrapReset)."""
+        self.solver = _Released(f"the solver of MpmEngine {self.label!r}")
+        self.bcs, self.recorders, self.physics, self._materials = {}, [], {}, {}
+        self._released = True
 
     # --- specimen -------------------------------------------------------------------------
-    def material(self, mat):
-        """Solver id of an ElasticMaterial, registering it on first use."""
+    def material(self, mat, owner="MpmEngine.material"):
+        """Solver id of an ElasticMaterial, registering it on first use. Refused: a plane-stress
+        material in 3D, and one whose wave speed gives a critical time step h / c of 0 or infinity
+        at this cell size."""
+        _MATERIAL.validate(mat, owner)
+        if getattr(self, "_released", False):
+            self.solver._fail()
         key = id(mat)
         if key not in self._materials:
-            self._materials[key] = (mat, self.solver.addMaterial(float(mat.E), float(mat.nu),
-                                                                 float(mat.rho), bool(mat.planeStress),
-                                                                 str(mat.split)))
+            if mat.planeStress and self.dim == 3:
+                raise ValueError(f"EigenMPM: planeStress = True is invalid in 3D (MpmEngine {self.label!r} has "
+                                 f"dim = 3); allowed: False, plane stress is a 2D model ({mat!r})")
+            args = (mat.E, mat.nu, mat.rho, mat.planeStress, mat.split)
+            # The law's own wave speed, from a scratch solver: a refused material must not stay
+            # in this one, where it would set the critical time step.
+            scratch = type(self.solver)(h=self.h, ppc=1, massCutoff=0.0, padding=1, gravity=(0.0, 0.0, 0.0))
+            c = scratch.materialInfo(scratch.addMaterial(*args))["waveSpeed"]
+            dt = self.h / c
+            if not (math.isfinite(dt) and dt >= sys.float_info.min):
+                low, high = c * sys.float_info.min, c * sys.float_info.max
+                allowed = f"h >= {low:.3g} m" if math.isinf(high) else f"{low:.3g} m <= h < {high:.3g} m"
+                raise ValueError(f"EigenMPM: h = {self.h!r} is invalid with this material (wave speed c = "
+                                 f"{c:.6g} m/s): the critical time step h / c would be {dt!r} s; allowed: {allowed} "
+                                 f"(MpmEngine {self.label!r}, {mat!r})")
+            self._materials[key] = (mat, self.solver.addMaterial(*args))
         return self._materials[key][1]
 
     def addPoints(self, positions, material, volumes, velocities=None):
-        """Adds points at `positions` (n x 3, m) with `volumes` (m^3; in 2D area x thickness).
+        """Adds points at `positions` (n x 3, or n x 2 in 2D; m) with `volumes` (one value or n
+        values, m^3; in 2D area x thickness) and `velocities` (one vector or n x 3, m/s).
         Returns the ids of the new points."""
-        pos = np.ascontiguousarray(np.asarray(positions, dtype=float).reshape(-1, 3))
+        owner = "MpmEngine.addPoints"
+        pos = _array(positions, "positions", owner)
+        if pos.ndim == 1 and pos.size in (2, 3):
+            pos = pos[None, :]
+        if pos.ndim != 2 or pos.shape[1] not in (self.dim, 3):
+            raise ValueError(f"EigenMPM: positions of shape {pos.shape} is invalid; allowed: an n x 3 array"
+                             f"{' (or n x 2)' if self.dim == 2 else ''} of coordinates ({owner})")
         n = len(pos)
-        vol = np.ascontiguousarray(np.broadcast_to(np.asarray(volumes, dtype=float), (n,)))
-        vel = np.zeros((n, 3)) if velocities is None else np.asarray(velocities, dtype=float)
+        if pos.shape[1] == 2:
+            pos = np.hstack([pos, np.zeros((n, 1))])
+        vol = _array(volumes, "volumes", owner)
+        if vol.ndim > 1 or vol.size not in (1, n):
+            raise ValueError(f"EigenMPM: volumes of shape {vol.shape} is invalid; allowed: one volume or {n} "
+                             f"(one per point) ({owner})")
+        vel = np.zeros(3) if velocities is None else _array(velocities, "velocities", owner)
+        if vel.shape not in ((3,), (self.dim,), (n, 3), (n, self.dim)):
+            raise ValueError(f"EigenMPM: velocities of shape {vel.shape} is invalid; allowed: one vector or n x 3 "
+                             f"with n = {n} ({owner})")
+        if vel.shape[-1] == 2:
+            vel = np.concatenate([vel, np.zeros(vel.shape[:-1] + (1,))], axis=-1)
+        if self.dim == 2 and np.any(vel[..., 2] != 0):
+            raise ValueError("EigenMPM: velocities with a non-zero z component are invalid in 2D: it does not "
+                             f"apply; allowed: (vx, vy, 0) ({owner})")
+        mid = self.material(material, owner)
+        rho = material.rho
+        with np.errstate(over="ignore"):
+            mass = rho * vol
+        if vol.size and not np.all(np.isfinite(mass)):
+            raise ValueError(f"EigenMPM: volumes up to {float(vol.max())!r} m^3 are invalid with rho = {rho!r} "
+                             f"kg/m3: the point mass overflows; allowed: volume < {sys.float_info.max / rho:.3g} "
+                             f"m^3 ({owner})")
+        pos = np.ascontiguousarray(pos)
+        vol = np.ascontiguousarray(np.broadcast_to(vol.reshape(-1), (n,)))
         vel = np.ascontiguousarray(np.broadcast_to(vel, (n, 3)))
-        first = self.solver.addPoints(pos, vel, vol, self.material(material))
+        first = self.solver.addPoints(pos, vel, vol, mid)
         self.referencePositions = np.concatenate([self.referencePositions, pos])
         return np.arange(first, first + n)
 
@@ -216,12 +363,21 @@ class MpmEngine(PyRunner):
         cell fractions (i + 1/2)/ppc). In 2D the predicate is evaluated in the plane z = middle of
         its bounding box (z = 0 if unbounded). Returns the ids of the new points."""
         from .builders import latticePoints
+        owner = "MpmEngine.fill"
+        _MATERIAL.validate(material, owner)
+        velocity = _VELOCITY.validate(velocity, owner)
+        _planar(velocity, "velocity", self.dim, owner)
+        vol = (self.h / self.ppc) ** self.dim * (self.thickness if self.dim == 2 else 1.0)
+        if not (math.isfinite(vol) and vol >= sys.float_info.min):
+            raise ValueError(f"EigenMPM: h = {self.h!r} is invalid with ppc = {self.ppc}"
+                             f"{f', thickness = {self.thickness!r}' if self.dim == 2 else ''}: the point volume "
+                             f"(h / ppc)^{self.dim}{' x thickness' if self.dim == 2 else ''} = {vol!r} m^3; "
+                             f"allowed: a volume that is finite and not below {sys.float_info.min:.3g} ({owner})")
         pos = latticePoints(predicate, self.h, self.ppc, self.dim)
         if len(pos) == 0:
             raise ValueError(f"EigenMPM: the predicate {predicate!r} holds no lattice point at h = "
                              f"{self.h}, ppc = {self.ppc}; check its extent")
-        vol = (self.h / self.ppc) ** self.dim * (self.thickness if self.dim == 2 else 1.0)
-        return self.addPoints(pos, material, vol, vec3(velocity, "velocity"))
+        return self.addPoints(pos, material, vol, velocity)
 
     def pointsIn(self, predicate, pad=0.0):
         """Ids of the points whose current position satisfies ``predicate(x, pad)``."""
@@ -259,9 +415,16 @@ class MpmEngine(PyRunner):
         nodes = [] if region is None else self._indices(region, self.nodesIn)
         pts = [] if points is None else self._indices(points, self.pointsIn)
         if len(nodes) == 0 and len(pts) == 0:
-            raise ValueError(f"EigenMPM: velocityBC {label!r} selects no node and no point; check the region")
+            which, sel = ("region", region) if region is not None else ("points", points)
+            raise ValueError(f"EigenMPM: {which} = {sel!r} selects no {'node' if region is not None else 'point'} "
+                             f"of MpmEngine {self.label!r}; allowed: a selection holding one at least (check its "
+                             "extent) (MpmEngine.velocityBC)")
         mask = _mask(components or "xyz"[:self.dim], self.dim)
         v0 = (0.0, 0.0, 0.0) if callable(velocity) else velocity
+        _planar(v0, "velocity", self.dim, "MpmEngine.velocityBC")
+        if label in self.bcs:
+            raise ValueError(f"EigenMPM: label = {label!r} is invalid; allowed: a label no other condition of "
+                             f"MpmEngine {self.label!r} has (taken: {', '.join(map(repr, self.bcs))})")
         cid = self.solver.addVelocityCondition([int(i) for i in nodes], [int(i) for i in pts], mask, v0, rampTime)
         label = label or f"bc{cid}"
         bc = VelocityBC(self, cid, label, velocity, rampTime)
@@ -278,6 +441,7 @@ class MpmEngine(PyRunner):
     def traction(self, points, traction, rampTime, layer):
         """Applies a traction on boundary points as the nodal force N t V_p / layer of paper Eq 28.
         Returns the id of the condition."""
+        _planar(traction, "traction", self.dim, "MpmEngine.traction")
         pts = self._indices(points, self.pointsIn)
         if len(pts) == 0:
             raise ValueError("EigenMPM: traction selects no point; check the predicate")
@@ -289,8 +453,26 @@ class MpmEngine(PyRunner):
     def crack(self, vertices):
         """Adds a pre-existing crack (phantom nodes, paper Section 3.3.1). An edge notch starts on
         (or beyond) the body's boundary, an interior crack inside it; several cracks are allowed.
-        The crack then moves with the material. Returns the crack id."""
-        return self.solver.addCrack(vertices)
+        The crack then moves with the material. Returns the crack id. A crack that passes through
+        no point's cell (h / ppc wide) gets a warning, at the first step if it is added before."""
+        cid = self.solver.addCrack(vertices)
+        self._cracksToCheck.append(cid)
+        if self._started:
+            self._checkCracks()
+        return cid
+
+    def _checkCracks(self):
+        """Warns of each crack to check that cuts no material: none of the points' cells (of
+        width h / ppc about each point) meets it."""
+        x = self.solver.positions()[:, :self.dim]
+        reach = 0.5 * self.h / self.ppc * (1 + 1e-9)
+        for cid in self._cracksToCheck:
+            v = np.array([list(p) for p in self.solver.crackVertices(cid)])[:, :self.dim]
+            if len(x) == 0 or not _nearCrack(x, v, reach).any():
+                warnings.warn(f"EigenMPM: crack {cid} with vertices {v.tolist()} cuts no material: no point of "
+                              f"MpmEngine {self.label!r} lies within {reach:.4g} m (half a point spacing) of "
+                              "it, so it changes nothing; check its coordinates", UserWarning, stacklevel=2)
+        self._cracksToCheck = []
 
     def crackVertices(self, crackId=0):
         """Current vertices of a crack (they move with the material)."""
@@ -307,16 +489,25 @@ class MpmEngine(PyRunner):
         """h / (wave speed + max point speed): the largest O.dt this engine accepts, in s."""
         return self.solver.criticalTimeStep()
 
-    def _attachPhysics(self):
-        # Physics engines placed in O.engines attach their stage before the first step.
-        for e in O.engines:
-            if hasattr(e, "attach") and e is not self and findEngine(e.engine) is self:
-                e.attach(self)
+    def _syncPhysics(self):
+        """A physics engine (EigenErosion, ...) acts only while it is in O.engines and not dead:
+        each step, those there that work for this engine attach their stage, and any other
+        attached one is detached. Returns O.engines."""
+        engines = O.engines
+        active = [e for e in engines if e is not self and callable(getattr(type(e), "attach", None))
+                  and not e.dead and findEngine(e.engine) is self]
+        for e in list(self.physics.values()):
+            if not any(e is a for a in active):
+                e.detach(self)
+        for e in active:
+            e.attach(self)
+        return engines
 
     def _action(self):
+        engines = self._syncPhysics()
         if not self._started:
-            self._attachPhysics()
             self._started = True
+            self._checkCracks()
         # O.iter going back behind this solver means the scene was reloaded without its EigenMPM
         # state (eigenmpm.state): stepping on would continue from a later state, silently wrong.
         # (Forward skips happen: YADE resumes an iteration after an engine that raised.)
@@ -335,7 +526,8 @@ class MpmEngine(PyRunner):
             self.solver.step(O.dt, int(threads))
         except Exception as err:
             for rec in self.recorders:
-                rec.onFailure(self, err)
+                if any(rec is e for e in engines) and not rec.dead:
+                    rec.onFailure(self, err)
             raise
 
     def _restored(self):
@@ -371,17 +563,59 @@ ENGINE = Param("engine", None, "", "the MpmEngine (object or label); default: th
                check=lambda e: isinstance(e, (MpmEngine, str)))
 
 
-class _Call:
-    def __init__(self, function):
+class _Call(PyRunner):
+    """The PyRunner of callEvery: a Python object, so that YADE holds the function with it."""
+
+    def __init__(self, function, label):
+        PyRunner.__init__(self, initRun=True, label=label)
         self._function = function
+        self.command = _register(self)
 
     def _action(self):
         self._function()
+
+    def _release(self):
+        self._function = _Released("the function of callEvery")
+        self._released = True
 
 
 def callEvery(function, iterPeriod=1, virtPeriod=0.0, label=""):
     """A PyRunner that calls ``function()`` every iterPeriod iterations (or virtPeriod seconds),
     starting at the first iteration. Unlike a command string it needs no name in ``__main__``."""
-    r = PyRunner(command=_register(_Call(function)), initRun=True, label=label)
+    r = _Call(function, label)
     r.iterPeriod, r.virtPeriod = int(iterPeriod), float(virtPeriod)
     return r
+
+
+def _nearCrack(x, v, reach):
+    """Mask of the points x (n x dim) within `reach` of the crack with vertices v: a polyline in
+    2D, a planar polygon in 3D."""
+    if x.shape[1] == 2:
+        near = np.zeros(len(x), bool)
+        for a, b in zip(v[:-1], v[1:]):
+            ab = b - a
+            t = np.clip((x - a) @ ab / max(ab @ ab, 1e-300), 0.0, 1.0)
+            near |= np.sum((x - a - t[:, None] * ab) ** 2, axis=1) <= reach * reach
+        return near
+    # 3D: the normal by Newell's method; points near the plane whose projection lies inside the
+    # polygon, or near one of its edges.
+    n = np.sum([np.cross(p, q) for p, q in zip(v, np.roll(v, -1, axis=0))], axis=0)
+    n = n / max(np.linalg.norm(n), 1e-300)
+    e1 = v[1] - v[0]
+    e1 = e1 / max(np.linalg.norm(e1), 1e-300)
+    e2 = np.cross(n, e1)
+    near = np.abs((x - v[0]) @ n) <= reach
+    u, w = (x - v[0]) @ e1, (x - v[0]) @ e2
+    pu, pw = (v - v[0]) @ e1, (v - v[0]) @ e2
+    inside = np.zeros(len(x), bool)
+    for k in range(len(v)):
+        u0, w0, u1, w1 = pu[k], pw[k], pu[k - 1], pw[k - 1]
+        crosses = (w0 > w) != (w1 > w)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            inside ^= crosses & (u < u0 + (w - w0) * (u1 - u0) / (w1 - w0))
+    edges = np.zeros(len(x), bool)
+    for a, b in zip(v, np.roll(v, -1, axis=0)):
+        ab = b - a
+        t = np.clip((x - a) @ ab / max(ab @ ab, 1e-300), 0.0, 1.0)
+        edges |= np.sum((x - a - t[:, None] * ab) ** 2, axis=1) <= reach * reach
+    return (near & inside) | edges

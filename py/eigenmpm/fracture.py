@@ -6,7 +6,7 @@ import numpy as np
 from yade import O, PyRunner
 
 from . import _eigenmpm
-from .engines import ENGINE, _register, findEngine
+from .engines import ENGINE, _register, _Released, findEngine
 from .params import Param, apply, declare
 
 
@@ -26,6 +26,20 @@ def linked(x, seed, radius):
     return seen
 
 
+def _planarOrigin(origin, dim, label):
+    if dim == 2 and origin[2] != 0.0:
+        raise ValueError(f"EigenMPM: origin = {tuple(origin)!r} is invalid in 2D: the z component does not apply; "
+                         f"allowed: (x, y) or (x, y, 0) (EigenErosion {label!r})")
+
+
+def sameStage(a, b):
+    """Whether two erosion stages are the same C++ object. A stage restored from a saved state
+    (eigenmpm.state) gets a new Python wrapper at each access, so `is` cannot tell."""
+    if a is None or b is None or isinstance(a, _Released) or isinstance(b, _Released):
+        return a is b
+    return a.address == b.address
+
+
 def kappaRange(h, dim):
     """Appendix A (Eq A3): the sensible range of kappa for cell size h, as (low, high)."""
     f = math.sqrt(2.0) if dim == 2 else 6.0 ** (1.0 / 3.0)
@@ -40,9 +54,10 @@ class EigenErosion(PyRunner):
     a step erode together; an eroded point keeps only its compressive stress sigma-. No
     neighbour search runs while alpha kappa max H < Gc.
 
-    The work happens inside the solver's step; this engine, placed in O.engines, attaches it
-    and records the crack's diagnostics every iterPeriod: dissipated energy (Eq 33), eroded
-    count, crack tips and tip speed (see :meth:`tips`).
+    The work happens inside the solver's step, and only while this engine is in O.engines (and
+    not dead): the MpmEngine attaches the stage at each step it finds the engine there, and
+    detaches it otherwise. The engine records the crack's diagnostics every iterPeriod:
+    dissipated energy (Eq 33), eroded count, crack tips and tip speed (see :meth:`tips`).
 
     Example::
 
@@ -53,16 +68,17 @@ class EigenErosion(PyRunner):
 
     params = (
         Param("label", "erosion", "", "YADE label of the engine; it prefixes the keys of plotData()"),
-        ENGINE,
+        Param(ENGINE.name, ENGINE.default, ENGINE.unit, ENGINE.doc, kind=ENGINE.kind, accepts=ENGINE.accepts,
+              check=ENGINE.checker, fixed=True),
         Param("Gc", None, "J/m2", "critical energy release rate", kind="float", bounds="(0, inf)",
-              required=True),
-        Param("alpha", 1.5, "", "normalising constant of Eq 23 (paper: 1 to 2)", bounds="(0, inf)"),
+              required=True, fixed=True),
+        Param("alpha", 1.5, "", "normalising constant of Eq 23 (paper: 1 to 2)", bounds="(0, inf)", fixed=True),
         Param("kappa", None, "m", "neighbourhood radius (give kappa or kappaOverH)", kind="float",
-              bounds="(0, inf)"),
+              bounds="(0, inf)", fixed=True),
         Param("kappaOverH", None, "", "neighbourhood radius as a multiple of the cell size h", kind="float",
-              bounds="(0, inf)"),
+              bounds="(0, inf)", fixed=True),
         Param("origin", None, "m", "crack origin for tip tracking (e.g. the pre-crack tip); "
-                                   "default: the first eroded point", kind="vector"),
+                                   "default: the first eroded point", kind="vector", fixed=True),
         Param("tipWindow", None, "s", "erosions within this time before a record can be tips, and "
                                       "the window of the tip speed; default 50 O.dt", kind="float",
               bounds="(0, inf)"),
@@ -79,15 +95,52 @@ class EigenErosion(PyRunner):
         self.core = None
         self.history = []  # (time, dissipated J, eroded count, front distance m, tip positions)
         self._origin = None if self.origin is None else np.array(self.origin)
+        self._mpm = None
         if self.engine is not None and not isinstance(self.engine, str):
-            self.attach(self.engine)
+            self._prepare(self.engine)  # checks kappa against the engine now; acts from O.engines
 
     def attach(self, mpm=None):
-        """Attaches the erosion stage to the solver of `mpm` (done automatically)."""
+        """Attaches the erosion stage to the solver of `mpm` (the MpmEngine does it at each step
+        while this engine is in O.engines, and detaches it otherwise). Returns the MpmEngine."""
         mpm = findEngine(mpm if mpm is not None else self.engine)
-        current = mpm.solver.erosion
-        if self.core is not None and current is not None and current.address == self.core.address:
+        self._prepare(mpm)
+        attached = mpm.solver.erosion
+        if sameStage(attached, self.core):
             return mpm
+        if attached is not None:
+            other = [e.label for e in mpm.physics.values() if e is not self]
+            raise ValueError(f"EigenMPM: EigenErosion {self.label!r} cannot act on MpmEngine {mpm.label!r}: "
+                             f"EigenErosion {', '.join(map(repr, other)) or '(detached)'} already does; "
+                             "allowed: one EigenErosion per MpmEngine in O.engines")
+        mpm.solver.setErosion(self.core)
+        mpm.physics[self.label] = self
+        return mpm
+
+    def detach(self, mpm):
+        """Removes the erosion stage from the solver of `mpm` (this engine left O.engines)."""
+        if sameStage(mpm.solver.erosion, self.core):
+            mpm.solver.setErosion(None)
+        for label, e in list(mpm.physics.items()):
+            if e is self:
+                del mpm.physics[label]
+
+    def _release(self):
+        """Frees the erosion state (O.reset(), see engines._wrapReset)."""
+        self.core = _Released(f"the erosion state of EigenErosion {self.label!r}")
+        self.history, self._mpm, self._released = [], None, True
+
+    def _prepare(self, mpm):
+        """The erosion state for `mpm`, made once: kappa from kappaOverH, checked against the
+        point spacing and the range of Appendix A."""
+        if getattr(self, "_released", False):
+            self.core._fail()
+        if self.core is not None:
+            if self._mpm is not mpm:
+                raise ValueError(f"EigenMPM: EigenErosion {self.label!r} was built for MpmEngine "
+                                 f"{self._mpm.label!r}, not {mpm.label!r}; build one per engine")
+            return
+        if self.origin is not None:
+            _planarOrigin(self.origin, mpm.dim, self.label)
         kappa = self.kappa if self.kappa is not None else self.kappaOverH * mpm.h
         low, high = kappaRange(mpm.h, mpm.dim)
         spacing = mpm.h / mpm.ppc
@@ -95,21 +148,21 @@ class EigenErosion(PyRunner):
             warnings.warn(f"EigenErosion: kappa = {kappa:.4g} m is below the point spacing "
                           f"{spacing:.4g} m, so the neighbourhood holds only the point itself "
                           f"(single-point erosion); Appendix A suggests {low:.4g} to {high:.4g} m",
-                          stacklevel=2)
+                          stacklevel=3)
         elif not low <= kappa <= high:
             warnings.warn(f"EigenErosion: kappa = {kappa:.4g} m is outside the range "
                           f"{low:.4g} to {high:.4g} m of Appendix A (Eq A3) for h = {mpm.h:.4g} m",
-                          stacklevel=2)
+                          stacklevel=3)
         cls = _eigenmpm.Erosion2 if mpm.dim == 2 else _eigenmpm.Erosion3
         self.core = cls(Gc=self.Gc, alpha=self.alpha, kappa=kappa)
-        mpm.solver.setErosion(self.core)
-        mpm.physics[self.label] = self
         self._mpm = mpm
-        return mpm
 
     def _action(self):
-        mpm = self.attach()
-        self.record(mpm)
+        mpm = findEngine(self.engine)
+        if not any(mpm is e for e in O.engines):
+            raise ValueError(f"EigenMPM: engine = MpmEngine {mpm.label!r} is invalid; allowed: an MpmEngine in "
+                             f"O.engines (EigenErosion {self.label!r} acts only on an engine of the scene)")
+        self.record(self.attach(mpm))
 
     # --- diagnostics ----------------------------------------------------------------------
     def dissipatedEnergy(self):
@@ -205,7 +258,7 @@ class EigenErosion(PyRunner):
             return np.array([]), np.array([])
         t = np.array([h[0] for h in self.history])
         d = np.array([h[3] for h in self.history])
-        w = window or self.tipWindow or 5 * (t[1] - t[0])
+        w = window or self.tipSpeedWindow()
         times, speeds = [], []
         j = 0
         for i in range(1, len(t)):
@@ -215,6 +268,15 @@ class EigenErosion(PyRunner):
                 times.append(0.5 * (t[i] + t[j]))
                 speeds.append((d[i] - d[j]) / (t[i] - t[j]))
         return np.array(times), np.array(speeds)
+
+    def tipSpeedWindow(self):
+        """The window of :meth:`tipSpeed` by default, and so of ``max_tip_speed_m_s`` in
+        :meth:`summary`, s: tipWindow, or 5 record periods (None before two records)."""
+        if self.tipWindow:
+            return self.tipWindow
+        if len(self.history) < 2:
+            return None
+        return 5 * (self.history[1][0] - self.history[0][0])
 
     def initiationTime(self):
         """Time of the first erosion, s (None before)."""
@@ -232,13 +294,16 @@ class EigenErosion(PyRunner):
 
     def summary(self):
         """Scalars for summary.json: dissipated energy (J), eroded count, initiation time (us),
-        maximum tip speed (m/s) and the current tips (m)."""
+        maximum tip speed (m/s) over windows of tip_speed_window_us (:meth:`tipSpeedWindow`; a
+        figure of tipSpeed() with the same window shows the same maximum) and the current tips (m)."""
         _, v = self.tipSpeed()
+        w = self.tipSpeedWindow()
         t0 = self.initiationTime()
         return {"dissipated_energy_J": self.dissipatedEnergy(), "eroded_count": self.erodedCount(),
                 "initiation_time_us": None if t0 is None else 1e6 * t0,
                 "branching_time_us": None if self.branchingTime() is None else 1e6 * self.branchingTime(),
                 "max_tip_speed_m_s": float(np.max(v)) if len(v) else 0.0,
+                "tip_speed_window_us": None if w is None else 1e6 * w,
                 "crack_front_distance_m": self.history[-1][3] if self.history else 0.0,
                 "crack_tips_m": self.history[-1][4] if self.history else []}
 

@@ -5,7 +5,9 @@ a function declares its arguments with :func:`takes`. A parameter that means the
 reuses the declaration (:func:`declared`, :meth:`Param.replace`). From that one declaration come
 - the validation: :func:`apply` / :func:`values` check every value before anything is built
   and fail with ``EigenMPM: <name> = <value> is invalid; allowed: <range>``, then convert it
-  to a plain Python type (so numpy scalars and YADE vectors are accepted);
+  to a plain Python type (so numpy scalars and YADE vectors are accepted); an assignment
+  ``obj.name = value`` afterwards is checked the same way (:func:`declare`), and refused for a
+  parameter declared ``fixed`` (one the object was built from);
 - the docstring (:func:`declare`, :func:`takes`), so ``help(eigenmpm.MpmEngine)`` shows the table;
 - the reference pages ``doc/reference/<Name>.md`` (``tools/paramdoc.py``).
 The C++ core takes every value from here and has no defaults of its own.
@@ -15,6 +17,7 @@ import inspect
 import math
 import numbers
 import re
+import weakref
 
 import numpy as np
 
@@ -39,7 +42,7 @@ class Param:
     """One user parameter.
 
     Param(name, default, unit, doc, kind=None, bounds=None, choices=None, required=False,
-          function=False, accepts=None, check=None)
+          function=False, accepts=None, check=None, fixed=False)
 
     name      the keyword the user writes
     default   the value when the keyword is not given; None means "automatic" (the doc says
@@ -63,14 +66,21 @@ class Param:
     function  a function may be given instead (e.g. velocity(t)); it is kept as is
     accepts   the allowed values in words, where bounds and choices do not say it
     check     function(value) -> bool, for `object` and for rules the kind cannot express
+    fixed     the object is built from the value (a solver, a law's constants): assigning it
+              after construction raises AttributeError instead of being silently ignored
+
+    A parameter named ``label`` is a YADE label, a name the user looks the object up by: when
+    its default is taken by a live object, the default becomes the first free one of label1,
+    label2, ... (see :func:`apply`).
     """
 
     def __init__(self, name, default, unit, doc, kind=None, bounds=None, choices=None, required=False,
-                 function=False, accepts=None, check=None):
+                 function=False, accepts=None, check=None, fixed=False):
         self._declared = dict(name=name, default=default, unit=unit, doc=doc, kind=kind, bounds=bounds,
                               choices=choices, required=required, function=function, accepts=accepts,
-                              check=check)
+                              check=check, fixed=fixed)
         self.name, self.default, self.unit, self.doc = name, default, unit, doc
+        self.fixed, self.unique = fixed, name == "label"
         self.kind = kind or self._inferKind(default)
         if self.kind not in KINDS:
             raise ValueError(f"Param {name}: kind {self.kind!r} is not one of {KINDS}")
@@ -252,9 +262,20 @@ class Param:
     def defaultText(self):
         return "required" if self.required else repr(self.default)
 
+    def notes(self):
+        """What the declaration adds to the doc: a default label made unique, a fixed value."""
+        out = []
+        if self.unique:
+            out.append(f"A default already taken by a live object becomes {self.default!r}1, "
+                       f"{self.default!r}2, ...")
+        if self.fixed:
+            out.append("Fixed once built: assigning it later is refused.")
+        return " ".join(out)
+
     def line(self):
         unit = f" [{self.unit}]" if self.unit else ""
-        return f"{self.name} = {self.defaultText()}{unit}; allowed: {self.allowed()}\n    {self.doc}"
+        notes = f" {self.notes()}" if self.notes() else ""
+        return f"{self.name} = {self.defaultText()}{unit}; allowed: {self.allowed()}\n    {self.doc}{notes}"
 
 
 def _isBool(value):
@@ -278,12 +299,28 @@ def _signature(params, first=(), positional=0):
 
 def declare(cls):
     """Builds the class docstring (the text before the table is kept as ``cls.description`` for
-    the reference pages) and the signature help() shows from ``cls.params``. The parameters are
-    keywords, except the first ``cls.positional`` (default 0), which may also be given by position
-    (the constructor then validates them with :func:`arguments`)."""
+    the reference pages) and the signature help() shows from ``cls.params`` (keywords, except the
+    first ``cls.positional``, default 0, which may also be given by position and are then validated
+    by :func:`arguments`), and makes every
+    assignment of a declared parameter (``obj.ppc = 3``) go through its declaration: validated
+    and converted as in the constructor, and refused for a fixed one once it is set."""
     cls.description = inspect.cleandoc(cls.__doc__ or "")
     cls.__doc__ = _documented(cls.__doc__, cls.params)
     cls.__signature__ = _signature(cls.params, positional=getattr(cls, "positional", 0))
+    declared = {p.name: p for p in cls.params}
+    owner = cls.__name__
+
+    def __setattr__(self, name, value):
+        p = declared.get(name)
+        if p is not None:
+            if p.fixed and name in vars(self):
+                raise AttributeError(f"EigenMPM: {name} = {_shown(value)} cannot be assigned; {name} is fixed "
+                                     f"once the {owner} is built (it is {getattr(self, name)!r}): build a new "
+                                     f"{owner} with {name}={_shown(value)} ({owner})")
+            value = p.validate(value, owner)
+        super(cls, self).__setattr__(name, value)
+
+    cls.__setattr__ = __setattr__
     return cls
 
 
@@ -316,10 +353,35 @@ def values(params, kwargs, owner):
     return out
 
 
+# The live objects with a label (weakly: an object no one holds frees its label), for the
+# default labels. An object whose scene was reset is marked `_released` and frees its label too.
+_labelled = weakref.WeakSet()
+
+
+def _labelsInUse():
+    return {o.label for o in list(_labelled) if not getattr(o, "_released", False)}
+
+
+def freeLabel(default):
+    """`default`, or if a live object has it, the first of default1, default2, ... that none has."""
+    taken = _labelsInUse()
+    if default not in taken:
+        return default
+    return next(f"{default}{k}" for k in range(1, len(taken) + 2) if f"{default}{k}" not in taken)
+
+
 def apply(obj, params, kwargs, owner):
-    """Sets every declared parameter on obj from kwargs or its default (see :func:`values`)."""
-    for name, v in values(params, kwargs, owner).items():
-        setattr(obj, name, v)
+    """Sets every declared parameter on obj from kwargs or its default (see :func:`values`). A
+    default label already used by a live object is replaced by a free one (:func:`freeLabel`), so
+    that two engines built with defaults can be told apart (YADE binds each label to a name)."""
+    given = values(params, kwargs, owner)
+    for p in params:
+        v = given[p.name]
+        if p.unique and p.name not in kwargs and v is not None:
+            v = freeLabel(v)
+        setattr(obj, p.name, v)
+    if any(p.unique for p in params):
+        _labelled.add(obj)
 
 
 def arguments(params, args, kwargs, owner, positional=None):

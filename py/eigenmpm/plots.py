@@ -1,4 +1,7 @@
-"""Figures for reports: damage map, energies, crack tip speed (matplotlib, Agg backend)."""
+"""Figures for reports: damage map, energies, crack tip speed (matplotlib, Agg backend). Each
+function writes its figure and closes it, also when drawing fails: a script that draws many
+figures leaves none open."""
+import contextlib
 import os
 
 import numpy as np
@@ -11,67 +14,72 @@ def _pyplot():
     return plt
 
 
-def _save(fig, path):
-    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
-    fig.tight_layout()
-    fig.savefig(path, dpi=130)
-    return path
+@contextlib.contextmanager
+def _figure(path, figsize):
+    """The axes of a new figure, saved to path when the block ends and closed in any case."""
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=figsize)
+    try:
+        yield ax
+        os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+        fig.tight_layout()
+        fig.savefig(path, dpi=130)
+    finally:
+        plt.close(fig)
 
 
 def damageMap(mpm, path, title=None, scale=1e3, unit="mm"):
     """The points of a 2D MpmEngine at their current positions, intact blue and eroded red (like
     the paper's Figures 8, 16, 20, 24), with the pre-existing cracks as black lines. In 3D the
     points (and crack polygons) are projected on the x-y plane."""
-    plt = _pyplot()
     x = mpm.solver.positions() * scale
     d = mpm.solver.damage()
     lo, hi = x.min(axis=0), x.max(axis=0)
     span = np.maximum(hi - lo, 1e-30)
     width = 7.0
-    fig, ax = plt.subplots(figsize=(width, max(2.0, min(12.0, width * span[1] / span[0]))))
-    intact = d > 0
-    if len(x) <= 8000:  # beyond, tiny markers leave moire gaps
-        size = max(0.3, 2.0e4 / max(len(x), 1))
-        ax.scatter(x[intact, 0], x[intact, 1], s=size, c="#1f4e9c", marker="s", linewidths=0, label="intact")
-        ax.scatter(x[~intact, 0], x[~intact, 1], s=3 * size, c="#d62728", marker="s", linewidths=0,
-                   label="eroded")
-    else:
-        # Many points: a raster of about one pixel per point spacing (eroded wins in a pixel).
-        from matplotlib.colors import ListedColormap
-        spacing = np.sqrt(span[0] * span[1] / len(x))
-        nx, ny = (int(min(2000, max(10, v / spacing))) for v in span[:2])
-        rng = [[lo[0], hi[0]], [lo[1], hi[1]]]
-        full, _, _ = np.histogram2d(x[:, 0], x[:, 1], bins=(nx, ny), range=rng)
-        broken, _, _ = np.histogram2d(x[~intact, 0], x[~intact, 1], bins=(nx, ny), range=rng)
-        img = np.where(broken > 0, 2, np.where(full > 0, 1, 0)).T
-        ax.imshow(img, origin="lower", extent=(lo[0], hi[0], lo[1], hi[1]), interpolation="nearest",
-                  cmap=ListedColormap(["white", "#1f4e9c", "#d62728"]), vmin=0, vmax=2)
-    for c in range(mpm.solver.numCracks):
-        v = np.array([list(p) for p in mpm.solver.crackVertices(c)]) * scale
-        ax.plot(np.append(v[:, 0], v[0, 0]) if mpm.dim == 3 else v[:, 0],
-                np.append(v[:, 1], v[0, 1]) if mpm.dim == 3 else v[:, 1], "k-", lw=1.2,
-                label="pre-existing crack" if c == 0 else None)
-    ax.set_aspect("equal")
-    ax.set_xlabel(f"x ({unit})")
-    ax.set_ylabel(f"y ({unit})")
-    ax.set_title(title or f"damage at t = {mpm.solver.time * 1e6:.1f} us ({int((~intact).sum())} points eroded)")
-    return _save(fig, path)
+    with _figure(path, (width, max(2.0, min(12.0, width * span[1] / span[0])))) as ax:
+        intact = d > 0
+        if len(x) <= 8000:  # beyond, tiny markers leave moire gaps
+            size = max(0.3, 2.0e4 / max(len(x), 1))
+            ax.scatter(x[intact, 0], x[intact, 1], s=size, c="#1f4e9c", marker="s", linewidths=0, label="intact")
+            ax.scatter(x[~intact, 0], x[~intact, 1], s=3 * size, c="#d62728", marker="s", linewidths=0,
+                       label="eroded")
+        else:
+            # Many points: a raster of about one pixel per point spacing (eroded wins in a pixel).
+            from matplotlib.colors import ListedColormap
+            spacing = np.sqrt(span[0] * span[1] / len(x))
+            nx, ny = (int(min(2000, max(10, v / spacing))) for v in span[:2])
+            rng = [[lo[0], hi[0]], [lo[1], hi[1]]]
+            full, _, _ = np.histogram2d(x[:, 0], x[:, 1], bins=(nx, ny), range=rng)
+            broken, _, _ = np.histogram2d(x[~intact, 0], x[~intact, 1], bins=(nx, ny), range=rng)
+            img = np.where(broken > 0, 2, np.where(full > 0, 1, 0)).T
+            ax.imshow(img, origin="lower", extent=(lo[0], hi[0], lo[1], hi[1]), interpolation="nearest",
+                      cmap=ListedColormap(["white", "#1f4e9c", "#d62728"]), vmin=0, vmax=2)
+        for c in range(mpm.solver.numCracks):
+            v = np.array([list(p) for p in mpm.solver.crackVertices(c)]) * scale
+            ax.plot(np.append(v[:, 0], v[0, 0]) if mpm.dim == 3 else v[:, 0],
+                    np.append(v[:, 1], v[0, 1]) if mpm.dim == 3 else v[:, 1], "k-", lw=1.2,
+                    label="pre-existing crack" if c == 0 else None)
+        ax.set_aspect("equal")
+        ax.set_xlabel(f"x ({unit})")
+        ax.set_ylabel(f"y ({unit})")
+        ax.set_title(title or f"damage at t = {mpm.solver.time * 1e6:.1f} us ({int((~intact).sum())} points eroded)")
+    return path
 
 
 def series(path, t, curves, xlabel="time (us)", ylabel="", title="", tscale=1e6, hlines=()):
     """Line plot of several curves {label: values} against t (scaled by tscale); hlines are
     (value, label) reference lines."""
-    plt = _pyplot()
-    fig, ax = plt.subplots(figsize=(7, 4))
-    for label, y in curves.items():
-        ax.plot(np.asarray(t) * tscale, y, label=label)
-    for value, label in hlines:
-        ax.axhline(value, ls="--", lw=0.8, color="k")
-        ax.annotate(label, (ax.get_xlim()[0], value), va="bottom", fontsize=8)
-    ax.set_xlabel(xlabel)
-    ax.set_ylabel(ylabel)
-    if title:
-        ax.set_title(title)
-    if curves:
-        ax.legend()
-    return _save(fig, path)
+    with _figure(path, (7, 4)) as ax:
+        for label, y in curves.items():
+            ax.plot(np.asarray(t) * tscale, y, label=label)
+        for value, label in hlines:
+            ax.axhline(value, ls="--", lw=0.8, color="k")
+            ax.annotate(label, (ax.get_xlim()[0], value), va="bottom", fontsize=8)
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel(ylabel)
+        if title:
+            ax.set_title(title)
+        if curves:
+            ax.legend()
+    return path

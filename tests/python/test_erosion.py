@@ -121,7 +121,7 @@ def test_neighbour_search_equals_brute_force(dim):
     # Random history through a random strain state: step once with random velocities.
     mpm.solver.setVelocities(rng.normal(0, 1.0, size=(mpm.solver.numPoints, 3)) * [1, 1, dim == 3])
     er = em.EigenErosion(engine=mpm, Gc=1e12, alpha=1.5, kappa=kappa)
-    O.engines = [mpm]
+    O.engines = [mpm, er]  # the erosion stage acts (and computes G) only from O.engines
     O.dt = 0.5 * mpm.criticalTimeStep()
     O.run(3, True)
     assert np.all(mpm.solver.history() >= 0) and np.count_nonzero(mpm.solver.history()) > 100
@@ -176,3 +176,85 @@ def test_stray_erosion_far_away_is_not_part_of_the_main_crack():
     x = np.array(crack + stray)
     main = er._mainCrack(x, list(range(len(x))), np.array([0.01, 0.02, 0.0]))
     assert sorted(main.tolist()) == list(range(20))
+
+
+# --- the erosion acts only while its engine is in O.engines ----------------------------------------
+def pulled_plate():
+    """A pre-cracked plate pulled apart (edges at +-2 m/s) that erodes within 100 steps at Gc = 1."""
+    mpm = em.MpmEngine(h=0.002)
+    mpm.fill(pack.inAlignedBox((0, 0, 0), (0.05, 0.02, 0)), em.ElasticMaterial(E=1e9, nu=0.2, rho=1000))
+    mpm.crack([(-0.001, 0.01, 0), (0.02, 0.01, 0)])
+    mpm.velocityBC(points=pack.inAlignedBox((-1, 0.019, -1), (1, 1, 1)), components="y", velocity=(0, 2, 0))
+    mpm.velocityBC(points=pack.inAlignedBox((-1, -1, -1), (1, 0.001, 1)), components="y", velocity=(0, -2, 0))
+    er = em.EigenErosion(engine=mpm, Gc=1.0, kappaOverH=1.1, iterPeriod=1000)
+    O.dt = 0.5 * mpm.criticalTimeStep()
+    return mpm, er
+
+
+def test_an_erosion_engine_never_in_o_engines_does_not_erode():
+    mpm, er = pulled_plate()
+    O.engines = [mpm]
+    O.run(150, True)
+    assert mpm.solver.erosion is None and er.erodedCount() == 0 and np.all(mpm.solver.damage() > 0)
+    O.reset()
+    mpm, er = pulled_plate()  # the same scene with the engine in O.engines erodes
+    O.engines = [mpm, er]
+    O.run(150, True)
+    assert er.erodedCount() > 0
+
+
+def test_an_erosion_engine_attached_by_hand_does_not_act_outside_o_engines():
+    mpm, er = pulled_plate()
+    er.attach(mpm)
+    assert mpm.solver.erosion is er.core
+    O.engines = [mpm]
+    O.run(150, True)
+    assert mpm.solver.erosion is None and er.erodedCount() == 0
+
+
+@pytest.mark.parametrize("how", ["removed", "dead"])
+def test_an_erosion_engine_stops_when_removed_or_dead_and_resumes_when_back(how):
+    mpm, er = pulled_plate()
+    O.engines = [mpm, er]
+    O.run(100, True)
+    assert mpm.solver.erosion is er.core and "erosion_Ef" in mpm.plotData()
+    if how == "removed":
+        O.engines = [mpm]
+    else:
+        er.dead = True
+    count, damage = er.erodedCount(), mpm.solver.damage().copy()
+    O.run(50, True)
+    assert mpm.solver.erosion is None and er.erodedCount() == count
+    assert np.array_equal(mpm.solver.damage(), damage) and "erosion_Ef" not in mpm.plotData()
+    if how == "removed":
+        O.engines = [mpm, er]
+    else:
+        er.dead = False
+    O.run(1, True)
+    assert mpm.solver.erosion is er.core
+
+
+def test_two_erosion_engines_for_one_solver_are_refused():
+    mpm, er = pulled_plate()
+    O.engines = [mpm, er, em.EigenErosion(engine=mpm, Gc=1.0, kappaOverH=1.1)]
+    with pytest.raises(RuntimeError, match="one EigenErosion per MpmEngine in O.engines"):
+        O.run(1, True)
+
+
+def test_summary_and_tip_speed_figure_share_one_window():
+    class Core:
+        kappa, dissipatedEnergy, erodedCount = 0.001, 0.0, 3
+
+        def events(self):
+            return [(0, 1, 1e-6)]
+
+    er = em.EigenErosion(Gc=1.0, kappa=0.001)
+    er.core = Core()
+    rng = np.random.default_rng(1)
+    front = np.cumsum(rng.uniform(0, 2e-4, 60))  # a front advancing by uneven steps
+    er.history = [(1e-7 * i, 0.0, 3, float(d), []) for i, d in enumerate(front)]
+    t, v = er.tipSpeed()  # what crack_branching.py draws in tip_speed.png
+    s = er.summary()
+    assert er.tipSpeedWindow() == pytest.approx(5e-7) and s["tip_speed_window_us"] == pytest.approx(0.5)
+    assert s["max_tip_speed_m_s"] == float(np.max(v))
+    assert np.max(er.tipSpeed(window=1e-6)[1]) != s["max_tip_speed_m_s"]  # another window differs

@@ -37,3 +37,44 @@ def test_yade_batch_table_runs_each_line(tmp_path):
     assert (b["cells_along_bar"], b["shape"]) == (20, "linear")
     assert not (tmp_path / "out" / "vibrating_bar" / "tip_displacement.png").exists()
 
+
+def test_bar_convergence_quick_runs(tmp_path):
+    script = os.path.join(ROOT, "examples", "verification", "bar_convergence.py")
+    env = dict(os.environ, PYTHONPATH=os.path.join(ROOT, "build", "python"))
+    res = subprocess.run(["yade", "-n", "-x", script, "--quick", "--out", str(tmp_path)], env=env, capture_output=True,
+                         text=True, timeout=300, stdin=subprocess.DEVNULL)
+    assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
+    import json
+    rows = json.load(open(tmp_path / "convergence.json"))
+    assert [r["cells"] for r in rows] == [10, 20, 40, 10, 20, 40]
+    assert all(abs(r["order"] - 2.0) < 0.2 for r in rows if r["cells"] > 10)  # measured 2.00
+    assert (tmp_path / "convergence.png").exists() and (tmp_path / "convergence.md").exists()
+
+
+@pytest.mark.parametrize("name", ["lshaped_panel", "dem_lshaped_panel"])
+def test_lpanel_examples_read_the_experiment_shipped_with_them(name, monkeypatch):
+    """The experimental band is in examples/data (a clone has no ../shared)."""
+    import importlib.util
+    import sys
+    script = os.path.join(ROOT, "examples", name + ".py")
+    assert "shared" not in open(script).read()
+    monkeypatch.setattr(sys, "argv", [script])  # as under `yade -x script`
+    spec = importlib.util.spec_from_file_location(f"example_{name}", script)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    band = module.experiment()
+    d, lower, upper = (band[:, 0], band[:, 1], band[:, 2]) if name == "lshaped_panel" else band[1:]
+    assert len(d) == 10 and (lower <= upper).all()
+    assert (lower.max(), upper.max(), d[upper.argmax()]) == (6.7, 7.6, 0.2)  # the peak band of the data
+
+
+def test_make_demo_runs_the_quick_branching_plate_and_the_readme_shows_its_damage_map():
+    makefile = open(os.path.join(ROOT, "Makefile")).read()
+    recipe = makefile.split("\ndemo: build\n")[1].split("\n\n")[0]
+    assert "yade -n -x examples/crack_branching.py --quick --out out/demo" in recipe
+    for name in ("damage.png", "energy.png", "tip_speed.png", "summary.json"):  # what the example writes
+        assert f"out/demo/{name}" in recipe and f"DIR/{name}" in open(os.path.join(ROOT, "examples",
+                                                                                  "crack_branching.py")).read()
+    readme = open(os.path.join(ROOT, "README.md")).read()
+    assert "](doc/img/demo_branching_damage.png)" in readme
+    assert os.path.getsize(os.path.join(ROOT, "doc", "img", "demo_branching_damage.png")) < 100_000
