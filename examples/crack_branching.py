@@ -104,7 +104,7 @@ def main(argv):
     if resume:  # the scene, its engines and their records as checkpointed (doc/restart.md)
         em.checkpoint.resume(resume)
         mpm = em.findEngine("plate")
-        crack = mpm.physics["erosion"]
+        (crack,) = mpm.physics.values()
         o["dt_us"] = O.dt * 1e6
     else:
         mpm, crack = build(o)

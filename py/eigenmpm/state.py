@@ -25,6 +25,7 @@ import io
 import json
 import os
 import pickle
+import weakref
 
 import yade.wrapper
 from yade import O, PyRunner
@@ -61,6 +62,7 @@ def _isErosion(x):
 
 
 _SOLVER_TYPES = tuple(_eigenmpm.solvers.values())
+_PROXIES = (weakref.ProxyType, weakref.CallableProxyType)
 
 
 class _Pickler(pickle.Pickler):
@@ -69,9 +71,17 @@ class _Pickler(pickle.Pickler):
     def __init__(self, f, engines, solvers):
         super().__init__(f, protocol=pickle.HIGHEST_PROTOCOL)
         self._engines = {id(obj): i for i, obj in engines}
+        self._byIndex = dict(engines)
         self._solvers = solvers  # list of (solver, bytes)
 
     def persistent_id(self, obj):
+        if type(obj) in _PROXIES:  # a weak reference to an engine (VelocityBC -> its MpmEngine)
+            command = getattr(obj, "command", None)
+            for i, e in self._byIndex.items():
+                if command is not None and getattr(e, "command", None) == command:
+                    return ("engineproxy", i)
+            raise StateError(f"EigenMPM: cannot save a weak reference to {obj!r}, which is not an engine "
+                             "of O.engines")
         if isinstance(obj, PyRunner) and id(obj) in self._engines:
             return ("engine", self._engines[id(obj)])
         if _isSolver(obj):
@@ -97,6 +107,9 @@ class _Unpickler(pickle.Unpickler):
         kind, k = pid
         if kind == "engine":
             return self._engines[k]
+        if kind == "engineproxy":
+            e = self._engines[k]
+            return None if e is None else weakref.proxy(e)
         if kind == "solver":
             return self._solvers[k]
         if kind == "erosion":

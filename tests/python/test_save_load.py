@@ -21,8 +21,9 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 def plate(dim=2, threads=1, velocity=None, vtk=None):
     """A small cracked plate pulled apart by tractions, eroding (about 30 points by 300 steps)."""
     h = 0.002
-    mpm = em.MpmEngine(dim=dim, h=h, thickness=h, threads=threads, label="plate",
-                       domain=((-0.005, -0.005, -0.005), (0.035, 0.025, 0.011)))
+    extra = dict(thickness=h) if dim == 2 else {}
+    mpm = em.MpmEngine(dim=dim, h=h, threads=threads, label="plate",
+                       domain=((-0.005, -0.005, -0.005), (0.035, 0.025, 0.011)), **extra)
     glass = em.ElasticMaterial(E=72e9, nu=0.22, rho=2440, planeStress=dim == 2)
     top = 0.006 if dim == 3 else 0
     mpm.fill(pack.inAlignedBox((0, 0, 0), (0.03, 0.02, top)), glass)
@@ -46,8 +47,9 @@ def plate(dim=2, threads=1, velocity=None, vtk=None):
 def state():
     mpm = em.findEngine("plate")
     s = mpm.solver
+    (erosion,) = mpm.physics.values()
     return (s.positions(), s.velocities(), s.stress(), s.damage(), s.history(), s.steps, s.time,
-            mpm.physics["erosion"].erodedCount(), mpm.physics["erosion"].dissipatedEnergy(),
+            erosion.erodedCount(), erosion.dissipatedEnergy(),
             [tuple(v) for v in mpm.crackVertices()])
 
 
