@@ -34,9 +34,11 @@ def test_reset_frees_the_solver_and_the_erosion_state():
     O.reset()
     gc.collect()
     assert solver() is None and core() is None
-    with pytest.raises(RuntimeError, match=r"the solver of MpmEngine 'mpm' was freed by O.reset\(\)"):
+    # Default labels are unique among live objects: earlier tests may hold 'mpm' or 'erosion'.
+    with pytest.raises(RuntimeError, match=rf"the solver of MpmEngine '{mpm.label}' was freed by O.reset\(\)"):
         mpm.kineticEnergy()
-    with pytest.raises(RuntimeError, match=r"erosion state of EigenErosion 'erosion' was freed by O.reset\(\)"):
+    with pytest.raises(RuntimeError, match=rf"erosion state of EigenErosion '{engines[2].label}' was freed by "
+                                           r"O.reset\(\)"):
         engines[2].dissipatedEnergy()
 
 
