@@ -288,3 +288,14 @@ def test_kalthoff_resumes_from_its_checkpoint_to_the_same_end_state(tmp_path):
     sa, _ = _resumeExample(tmp_path, "kalthoff.py", [], 300, ["checkpoint-000000600", "checkpoint-000000900"],
                            ["crack_path.csv"])
     assert sa["steps"] == 909 and sa["boundary_time_us"] is not None and sa["crack_points"] > 0
+
+
+def test_john_shah_resumes_from_its_checkpoint_to_the_same_end_state(tmp_path):
+    """john_shah.py (gamma = 0.5) --checkpoint-every 1760, then --resume: the newest checkpoint
+    (iteration 3520) lies after the crack reached 0.9 D (iteration ~3504) and before the stop
+    20 us later, so the resumed run ends at the same step (3545; 3560 if the watch had found
+    the crack again after the resume) only if the load watch came back with its state; peak_load_N comes from the load record, most of which was
+    saved in the checkpoint."""
+    sa, _ = _resumeExample(tmp_path, "john_shah.py", ["gamma=0.5"], 1760,
+                           ["checkpoint-000001760", "checkpoint-000003520"], [])
+    assert sa["steps"] == 3545 and sa["crack_origin"] == "notch" and sa["peak_load_N"] > 0
