@@ -299,3 +299,14 @@ def test_john_shah_resumes_from_its_checkpoint_to_the_same_end_state(tmp_path):
     sa, _ = _resumeExample(tmp_path, "john_shah.py", ["gamma=0.5"], 1760,
                            ["checkpoint-000001760", "checkpoint-000003520"], [])
     assert sa["steps"] == 3545 and sa["crack_origin"] == "notch" and sa["peak_load_N"] > 0
+
+
+def test_lshaped_panel_resumes_from_its_checkpoint_to_the_same_end_state(tmp_path):
+    """lshaped_panel.py --quick endDisplacement_mm=0.42 (17 162 steps; erosion from about step
+    16 550) --checkpoint-every 5700, then --resume from the newest checkpoint (iteration 17 100,
+    after the crack started): the same load-displacement record (most of it saved in the
+    checkpoint), eroded points and summary."""
+    sa, _ = _resumeExample(tmp_path, "lshaped_panel.py", ["endDisplacement_mm=0.42"], 5700,
+                           ["checkpoint-000011400", "checkpoint-000017100"],
+                           ["load_displacement.csv", "eroded.csv"])
+    assert sa["steps"] == 17162 and sa["eroded_count"] > 0 and sa["initiation_load_kN"] is not None
