@@ -46,7 +46,14 @@ Modelling choices (parameters in brackets):
 Run::
 
     yade -n -x examples/john_shah.py [--quick] [--out DIR] [param=value ...]
+        [--checkpoint-every N] [--resume DIR/checkpoints]
     yade-batch table.txt examples/john_shah.py      # e.g. a column gamma (and quick)
+
+--checkpoint-every N saves the scene every N iterations into DIR/checkpoints (eigenmpm.Checkpoint,
+doc/restart.md); --resume DIR/checkpoints continues from the newest of them (give the same
+parameters) to the end state of the uninterrupted run, the load record and the stop after
+0.9 D included, and writes the outputs as usual (wall_time_s then counts the resumed part only;
+the VTK series continues in the first run's folder).
 
 params: gamma, h_mm, kappaOverH, alpha, endTime_us, dt_us, v0_m_s, rampTime_us, overhang_mm,
 flaw_mm, notchWidth_mm, flawWidth_mm, supportWidth_mm, loadWidth_mm, stopAfter_us, vtkPeriod_us, E, nu, rho, Gc. Writes
@@ -82,7 +89,7 @@ from yade import O, pack, plot
 
 import eigenmpm as em
 from eigenmpm import plots
-from eigenmpm.cli import finish, runSteps, scriptArgs
+from eigenmpm.cli import checkpointArgs, finish, runSteps, scriptArgs
 from eigenmpm.fracture import linked
 from eigenmpm.ramp import rampDisplacement
 
@@ -175,42 +182,64 @@ def analyse(o, X0, events, kappa):
     return res
 
 
+class LoadWatch:
+    """Records the load (a callEvery: `curve`, rows of time, load-point reaction, support
+    reactions) and ends the run stopAfter_us after a crack reaches 90 % of the depth. A class at
+    the top level, not a local function, so that a checkpoint saves it with its record and
+    --resume continues it."""
+
+    def __init__(self, o, mpm, crack, load, supports):
+        self.o = dict(o)
+        self.mpm, self.crack, self.load, self.supports = mpm, crack, load, list(supports)
+        self.curve = []
+        self.at = None  # when a crack reached 0.9 D, s
+
+    def __call__(self):
+        o, mpm, load, supports = self.o, self.mpm, self.load, self.supports
+        X0 = mpm.referencePositions
+        self.curve.append((mpm.solver.time, -load.reaction[1], supports[0].reaction[1] + supports[1].reaction[1]))
+        if self.at is None and self.crack.core.erodedCount:
+            ev = self.crack.core.events()
+            kappa = o["kappaOverH"] * geometry(o)[0]
+            if np.max(X0[[e[0] for e in ev], 1]) >= 0.9 * D and analyse(o, X0, ev, kappa)["crack_top_fraction"] >= 0.9:
+                self.at = mpm.solver.time
+        if self.at is not None and o["stopAfter_us"] >= 0 and mpm.solver.time >= self.at + o["stopAfter_us"] * 1e-6:
+            O.pause()
+
+
 def main(argv):
+    argv, resume, every = checkpointArgs("john_shah", argv)
     o, out, quick = scriptArgs("john_shah", DEFAULTS, QUICK, argv)
     os.makedirs(out, exist_ok=True)
     O.reset()
     plot.reset()
-    mpm, crack, load, supports = build(o)
     h, s, half, xn = geometry(o)
     kappa = o["kappaOverH"] * h
-    O.dt = o["dt_us"] * 1e-6
     steps = int(round(o["endTime_us"] / o["dt_us"]))
-    X0 = mpm.solver.positions().copy()
-    curve = []
-    stop = {}
-
-    def watch():
-        """Records the load and ends the run stopAfter_us after a crack reaches 90 % of the depth."""
-        curve.append((mpm.solver.time, -load.reaction[1], supports[0].reaction[1] + supports[1].reaction[1]))
-        if "at" not in stop and crack.core.erodedCount:
-            ev = crack.core.events()
-            if np.max(X0[[e[0] for e in ev], 1]) >= 0.9 * D and analyse(o, X0, ev, kappa)["crack_top_fraction"] >= 0.9:
-                stop["at"] = mpm.solver.time
-        if "at" in stop and o["stopAfter_us"] >= 0 and mpm.solver.time >= stop["at"] + o["stopAfter_us"] * 1e-6:
-            O.pause()
-
-    vtk = em.VTKRecorder(fileName=os.path.join(out, "vtk", "beam-"),
-                         iterPeriod=max(1, int(round(o["vtkPeriod_us"] / o["dt_us"]))))
-    O.engines = [mpm, crack, em.PlotRecorder(iterPeriod=crack.iterPeriod),
-                 em.callEvery(watch, iterPeriod=crack.iterPeriod), vtk, em.Progress(endIter=steps, realPeriod=20)]
+    if resume:  # the scene, its engines and the load record as checkpointed (doc/restart.md)
+        em.checkpoint.resume(resume)
+        mpm = em.findEngine("beam")
+        (crack,) = mpm.physics.values()
+        (watch,) = [e.function for e in O.engines if isinstance(getattr(e, "function", None), LoadWatch)]
+    else:
+        mpm, crack, load, supports = build(o)
+        O.dt = o["dt_us"] * 1e-6
+        watch = LoadWatch(o, mpm, crack, load, supports)
+        vtk = em.VTKRecorder(fileName=os.path.join(out, "vtk", "beam-"),
+                             iterPeriod=max(1, int(round(o["vtkPeriod_us"] / o["dt_us"]))))
+        O.engines = [mpm, crack, em.PlotRecorder(iterPeriod=crack.iterPeriod),
+                     em.callEvery(watch, iterPeriod=crack.iterPeriod), vtk, em.Progress(endIter=steps, realPeriod=20)]
+        if every:
+            O.engines = [em.Checkpoint(directory=os.path.join(out, "checkpoints"), iterPeriod=every)] + list(O.engines)
+    X0 = mpm.referencePositions
     start = time.time()
-    end = runSteps(steps)  # Ctrl-C, SIGTERM or a solver error: outputs up to the stop, then finish()
+    end = runSteps(steps - O.iter)  # Ctrl-C, SIGTERM or a solver error: outputs up to the stop, then finish()
     wall = time.time() - start
     steps = mpm.solver.steps
     n = mpm.solver.numPoints
     summary = analyse(o, X0, crack.core.events(), kappa)
     cs = crack.summary()
-    curve = np.array(curve)
+    curve = np.array(watch.curve)
     t = mpm.solver.time
     u = rampDisplacement(t, o["v0_m_s"], o["rampTime_us"] * 1e-6)  # imposed load-point displacement
     summary.update(end_time_us=1e6 * t, load_point_displacement_mm=1e3 * u, peak_load_N=float(curve[:, 1].max()),

@@ -54,7 +54,14 @@ Modelling choices (parameters in brackets):
 Run::
 
     yade -n -x examples/kalthoff.py [--quick] [--out DIR] [param=value ...]
+        [--checkpoint-every N] [--resume DIR/checkpoints]
     yade-batch table.txt examples/kalthoff.py          # a column per parameter (and quick)
+
+--checkpoint-every N saves the scene every N iterations into DIR/checkpoints (eigenmpm.Checkpoint,
+doc/restart.md); --resume DIR/checkpoints continues from the newest of them (give the same
+parameters) to the end state of the uninterrupted run, the edge watch (stopAfter_us) included,
+and writes the outputs as usual (wall_time_s then counts the resumed part only; the VTK series
+continues in the first run's folder).
 
 params: h_mm, kappaOverH, alpha, endTime_us, dt_us, v0_m_s, rampTime_us, slitWidth_mm,
 slitLength_mm, stopAfter_us, initLength_mm, tipWindow_us, vtkPeriod_us, E, nu, rho, Gc, split (the
@@ -89,7 +96,7 @@ from yade import O, pack, plot
 
 import eigenmpm as em
 from eigenmpm import plots
-from eigenmpm.cli import finish, runSteps, scriptArgs
+from eigenmpm.cli import checkpointArgs, finish, runSteps, scriptArgs
 from eigenmpm.fracture import linked
 
 DEFAULTS = dict(h_mm=0.5, kappaOverH=1.15, alpha=2.0, endTime_us=110.0, dt_us=0.01, v0_m_s=16.5,
@@ -206,43 +213,62 @@ def analyse(o, X0, events, spacing, kappa):
     return res, X0[ids, :2], t, np.array(speedT), np.array(speed)
 
 
+class EdgeWatch:
+    """Ends the run stopAfter_us after the crack (connected to the notch tip) reaches the top or
+    right edge (a callEvery). A class at the top level, not a local function, so that a
+    checkpoint saves it with its state (the time the edge was reached) and --resume continues it."""
+
+    def __init__(self, o, mpm, crack):
+        h = o["h_mm"] * 1e-3
+        self.mpm, self.crack = mpm, crack
+        self.h, self.kappa, self.spacing = h, o["kappaOverH"] * h, h / mpm.ppc
+        self.stopAfter_us = o["stopAfter_us"]
+        self.at = None  # when the crack reached the edge, s
+
+    def __call__(self):
+        mpm, spacing = self.mpm, self.spacing
+        X0 = mpm.referencePositions
+        if self.at is None:
+            ev = self.crack.core.events()
+            ids = [e[0] for e in ev]
+            if ids and np.max(X0[ids, :2]) >= SIZE - spacing:
+                pick, _ = crackPoints(X0, ev, np.array([NOTCH_LEN, notchY(self.h)]), 2.0 * self.kappa)
+                ids = [p for p, _ in pick]
+                if np.max(X0[ids, :2]) >= SIZE - spacing:
+                    self.at = mpm.solver.time
+        if self.at is not None and mpm.solver.time >= self.at + self.stopAfter_us * 1e-6:
+            O.pause()
+
+
 def main(argv):
+    argv, resume, every = checkpointArgs("kalthoff", argv)
     o, out, quick = scriptArgs("kalthoff", DEFAULTS, QUICK, argv)
     os.makedirs(out, exist_ok=True)
     O.reset()
     plot.reset()
-    mpm, crack, impact = build(o)
-    O.dt = o["dt_us"] * 1e-6
     steps = int(round(o["endTime_us"] / o["dt_us"]))
-    vtk = em.VTKRecorder(fileName=os.path.join(out, "vtk", "plate-"),
-                         iterPeriod=max(1, int(round(o["vtkPeriod_us"] / o["dt_us"]))))
-    X0 = mpm.solver.positions().copy()
+    if resume:  # the scene, its engines and the edge watch as checkpointed (doc/restart.md)
+        em.checkpoint.resume(resume)
+        mpm = em.findEngine("plate")
+        (crack,) = mpm.physics.values()
+    else:
+        mpm, crack, impact = build(o)
+        O.dt = o["dt_us"] * 1e-6
+        vtk = em.VTKRecorder(fileName=os.path.join(out, "vtk", "plate-"),
+                             iterPeriod=max(1, int(round(o["vtkPeriod_us"] / o["dt_us"]))))
+        engines = [mpm, crack, em.PlotRecorder(iterPeriod=crack.iterPeriod), vtk,
+                   em.Progress(endIter=steps, realPeriod=20)]
+        if o["stopAfter_us"] >= 0:
+            engines.append(em.callEvery(EdgeWatch(o, mpm, crack), iterPeriod=crack.iterPeriod))
+        if every:
+            engines.insert(0, em.Checkpoint(directory=os.path.join(out, "checkpoints"), iterPeriod=every))
+        O.engines = engines
+    X0 = mpm.referencePositions
     h = o["h_mm"] * 1e-3
     kappa = o["kappaOverH"] * h
     spacing = h / mpm.ppc
-    stop = {}
-
-    def watch():
-        """Ends the run stopAfter_us after the crack (connected to the notch tip) reaches the
-        top or right edge."""
-        if "at" not in stop:
-            ev = crack.core.events()
-            ids = [e[0] for e in ev]
-            if ids and np.max(X0[ids, :2]) >= SIZE - spacing:
-                pick, _ = crackPoints(X0, ev, np.array([NOTCH_LEN, notchY(h)]), 2.0 * kappa)
-                ids = [p for p, _ in pick]
-                if np.max(X0[ids, :2]) >= SIZE - spacing:
-                    stop["at"] = mpm.solver.time
-        if "at" in stop and mpm.solver.time >= stop["at"] + o["stopAfter_us"] * 1e-6:
-            O.pause()
-
-    engines = [mpm, crack, em.PlotRecorder(iterPeriod=crack.iterPeriod), vtk,
-               em.Progress(endIter=steps, realPeriod=20)]
-    if o["stopAfter_us"] >= 0:
-        engines.append(em.callEvery(watch, iterPeriod=crack.iterPeriod))
-    O.engines = engines
     start = time.time()
-    end = runSteps(steps)  # Ctrl-C, SIGTERM or a solver error: outputs up to the stop, then finish()
+    end = runSteps(steps - O.iter)  # Ctrl-C, SIGTERM or a solver error: outputs up to the stop, then finish()
     wall = time.time() - start
     steps = mpm.solver.steps
     n = mpm.solver.numPoints

@@ -14,7 +14,14 @@ v t. The run is dynamic (explicit), so the load carries inertial oscillations.
 Run::
 
     yade -n -x examples/lshaped_panel.py [--quick] [--out DIR] [param=value ...]
+        [--checkpoint-every N] [--resume DIR/checkpoints]
     yade-batch table.txt examples/lshaped_panel.py        # a column per parameter (and quick)
+
+--checkpoint-every N saves the scene every N iterations into DIR/checkpoints (eigenmpm.Checkpoint,
+doc/restart.md); --resume DIR/checkpoints continues from the newest of them (give the same
+parameters) to the end state of the uninterrupted run, the load record included, and writes the
+outputs as usual (wall_time_s then counts the resumed part only; the VTK series continues in the
+first run's folder).
 
 params: h_mm, ppc, shape, alpha, kappaOverH, velocity_m_s, endDisplacement_mm, rampTime_ms (the
 velocity ramps up over this time, paper Eq 34; 0: applied suddenly), smoothWindow_ms (the load is
@@ -37,7 +44,7 @@ from yade import O, pack, plot
 
 import eigenmpm as em
 from eigenmpm import plots
-from eigenmpm.cli import finish, runSteps, scriptArgs
+from eigenmpm.cli import checkpointArgs, finish, runSteps, scriptArgs
 from eigenmpm.ramp import rampDisplacement, rampTimeTo
 
 DEFAULTS = dict(h_mm=5.0, ppc=2, shape="uGIMP", alpha=1.5, kappaOverH=1.1, velocity_m_s=0.01,
@@ -61,11 +68,21 @@ def experiment():
     return np.array([[float(c) for c in r] for r in rows[1:]])  # after the line of column names
 
 
-def main(argv):
-    o, out, quick = scriptArgs("lshaped_panel", DEFAULTS, QUICK, argv)
-    os.makedirs(out, exist_ok=True)
-    O.reset()
-    plot.reset()
+class LoadCurve:
+    """Records the load point (a callEvery): `curve`, rows of time, imposed displacement (the
+    velocity ramp, paper Eq 34) and the load condition's reaction. A class at the top level, not
+    a local function, so that a checkpoint saves it with its record and --resume continues it."""
+
+    def __init__(self, mpm, load, velocity, rampTime):
+        self.mpm, self.load, self.velocity, self.rampTime = mpm, load, velocity, rampTime
+        self.curve = []
+
+    def __call__(self):
+        t = self.mpm.solver.time
+        self.curve.append((t, rampDisplacement(t, self.velocity, self.rampTime), self.load.reaction[1]))
+
+
+def build(o):
     h = o["h_mm"] * 1e-3
     a = 0.25
     panel = pack.inAlignedBox((0, 0, 0), (2 * a, 2 * a, 0)) - pack.inAlignedBox((a, -1, -1), (1, a, 1))
@@ -79,22 +96,37 @@ def main(argv):
                           label="load")
     crack = em.EigenErosion(engine=mpm, Gc=o["Gc"], alpha=o["alpha"], kappaOverH=o["kappaOverH"],
                             origin=(a, a, 0), iterPeriod=100)
-    O.dt = o["dtFraction"] * mpm.criticalTimeStep()
+    return mpm, crack, load
+
+
+def main(argv):
+    argv, resume, checkpointEvery = checkpointArgs("lshaped_panel", argv)
+    o, out, quick = scriptArgs("lshaped_panel", DEFAULTS, QUICK, argv)
+    os.makedirs(out, exist_ok=True)
+    O.reset()
+    plot.reset()
     v, t0 = o["velocity_m_s"], o["rampTime_ms"] * 1e-3
-
-    def imposed(t):  # the load point's displacement under the velocity ramp (paper Eq 34)
-        return rampDisplacement(t, v, t0)
-
-    steps = int(round(rampTimeTo(o["endDisplacement_mm"] * 1e-3, v, t0) / O.dt))
-    every = max(1, steps // 2000)
-    curve = []
-    O.engines = [mpm, crack,
-                 em.callEvery(lambda: curve.append((mpm.solver.time, imposed(mpm.solver.time), load.reaction[1])),
-                              iterPeriod=every),
-                 em.VTKRecorder(fileName=os.path.join(out, "vtk", "panel-"), iterPeriod=max(1, steps // 20)),
-                 em.Progress(endIter=steps, realPeriod=30)]
+    if resume:  # the scene, its engines and the load record as checkpointed (doc/restart.md)
+        em.checkpoint.resume(resume)
+        mpm = em.findEngine("panel")
+        (crack,) = mpm.physics.values()
+        (recorder,) = [e.function for e in O.engines if isinstance(getattr(e, "function", None), LoadCurve)]
+        steps = int(round(rampTimeTo(o["endDisplacement_mm"] * 1e-3, v, t0) / O.dt))
+    else:
+        mpm, crack, load = build(o)
+        O.dt = o["dtFraction"] * mpm.criticalTimeStep()
+        steps = int(round(rampTimeTo(o["endDisplacement_mm"] * 1e-3, v, t0) / O.dt))
+        every = max(1, steps // 2000)
+        recorder = LoadCurve(mpm, load, v, t0)
+        O.engines = [mpm, crack, em.callEvery(recorder, iterPeriod=every),
+                     em.VTKRecorder(fileName=os.path.join(out, "vtk", "panel-"), iterPeriod=max(1, steps // 20)),
+                     em.Progress(endIter=steps, realPeriod=30)]
+        if checkpointEvery:
+            O.engines = ([em.Checkpoint(directory=os.path.join(out, "checkpoints"), iterPeriod=checkpointEvery)]
+                         + list(O.engines))
+    curve = recorder.curve
     start = time.time()
-    end = runSteps(steps)  # Ctrl-C, SIGTERM or a solver error: outputs up to the stop, then finish()
+    end = runSteps(steps - O.iter)  # Ctrl-C, SIGTERM or a solver error: outputs up to the stop, then finish()
     steps = mpm.solver.steps
     wall = time.time() - start
     tc = np.array([c[0] for c in curve])

@@ -571,6 +571,12 @@ class _Call(PyRunner):
         self._function = function
         self.command = _register(self)
 
+    @property
+    def function(self):
+        """The function (or callable object) it calls: after a load or a resume, the restored
+        recorder of an example."""
+        return self._function
+
     def _action(self):
         self._function()
 

@@ -253,3 +253,60 @@ def test_example_resumes_from_its_checkpoint_to_the_same_end_state(tmp_path):
     for k in sa:
         if k not in ("wall_time_s", "particle_steps_per_s"):
             assert sa[k] == sb[k], k
+
+
+def _resumeExample(tmp_path, script, params, every, checkpoints, csvs):
+    """Runs examples/<script> --quick with params and --checkpoint-every `every`, then again with
+    --resume from its checkpoints (the names `checkpoints` are expected): the CSVs `csvs` are
+    the same byte for byte and the summaries the same value for value but the wall times.
+    Returns the two summaries."""
+    import json
+    env = dict(os.environ, PYTHONPATH=os.path.join(ROOT, "build", "python"))
+    path = os.path.join(ROOT, "examples", script)
+    a, b = tmp_path / "a", tmp_path / "b"
+    for args in (["--out", str(a), "--checkpoint-every", str(every)],
+                 ["--out", str(b), "--resume", str(a / "checkpoints")]):
+        r = subprocess.run(["yade", "-n", "-x", path, "--quick"] + list(params) + args, env=env,
+                           capture_output=True, text=True, timeout=600, stdin=subprocess.DEVNULL)
+        assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-2000:]
+    assert sorted(os.listdir(a / "checkpoints")) == checkpoints
+    for name in csvs:
+        assert (a / name).read_bytes() == (b / name).read_bytes(), name
+    sa, sb = (json.loads((d / "summary.json").read_text()) for d in (a, b))
+    assert sorted(sa) == sorted(sb)
+    for k in sa:
+        if k not in ("wall_time_s", "particle_steps_per_s"):
+            assert sa[k] == sb[k], k
+    return sa, sb
+
+
+def test_kalthoff_resumes_from_its_checkpoint_to_the_same_end_state(tmp_path):
+    """kalthoff.py --checkpoint-every 300, then --resume: the newest checkpoint (iteration 900)
+    lies after the crack reached the edge (iteration ~887) and before the stop 2 us later, so
+    the resumed run ends at the same step (909 < 917 = endTime_us / dt_us) only if the edge watch
+    came back with its state."""
+    sa, _ = _resumeExample(tmp_path, "kalthoff.py", [], 300, ["checkpoint-000000600", "checkpoint-000000900"],
+                           ["crack_path.csv"])
+    assert sa["steps"] == 909 and sa["boundary_time_us"] is not None and sa["crack_points"] > 0
+
+
+def test_john_shah_resumes_from_its_checkpoint_to_the_same_end_state(tmp_path):
+    """john_shah.py (gamma = 0.5) --checkpoint-every 1760, then --resume: the newest checkpoint
+    (iteration 3520) lies after the crack reached 0.9 D (iteration ~3504) and before the stop
+    20 us later, so the resumed run ends at the same step (3545; 3560 if the watch had found
+    the crack again after the resume) only if the load watch came back with its state; peak_load_N comes from the load record, most of which was
+    saved in the checkpoint."""
+    sa, _ = _resumeExample(tmp_path, "john_shah.py", ["gamma=0.5"], 1760,
+                           ["checkpoint-000001760", "checkpoint-000003520"], [])
+    assert sa["steps"] == 3545 and sa["crack_origin"] == "notch" and sa["peak_load_N"] > 0
+
+
+def test_lshaped_panel_resumes_from_its_checkpoint_to_the_same_end_state(tmp_path):
+    """lshaped_panel.py --quick endDisplacement_mm=0.42 (17 162 steps; erosion from about step
+    16 550) --checkpoint-every 5700, then --resume from the newest checkpoint (iteration 17 100,
+    after the crack started): the same load-displacement record (most of it saved in the
+    checkpoint), eroded points and summary."""
+    sa, _ = _resumeExample(tmp_path, "lshaped_panel.py", ["endDisplacement_mm=0.42"], 5700,
+                           ["checkpoint-000011400", "checkpoint-000017100"],
+                           ["load_displacement.csv", "eroded.csv"])
+    assert sa["steps"] == 17162 and sa["eroded_count"] > 0 and sa["initiation_load_kN"] is not None
