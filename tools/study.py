@@ -223,11 +223,17 @@ def runOne(script, outDir, args, quick=False, timeout=None, rerun=False, yade="y
             old["reused"] = True
             return old
     os.makedirs(outDir, exist_ok=True)
+    path = os.path.join(outDir, "summary.json")
+    # A summary left by an earlier run must not pass for this run's (a crash writes none): remove
+    # it first. (Comparing its mtime with the start time is not safe: the kernel stamps files with
+    # a clock coarser than time.time(), so a fresh file can look a few ms older than the start.)
+    if os.path.exists(path):
+        os.remove(path)
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join(filter(None, [os.path.join(ROOT, "build", "python"), env.get("PYTHONPATH")]))
     load = os.getloadavg()[0]
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    started, start = time.time(), time.perf_counter()
+    start = time.perf_counter()
     try:
         res = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=timeout,
                              stdin=subprocess.DEVNULL)
@@ -240,10 +246,7 @@ def runOne(script, outDir, args, quick=False, timeout=None, rerun=False, yade="y
     with open(os.path.join(outDir, "log.txt"), "w") as f:
         f.write(log if isinstance(log, str) else log.decode(errors="replace"))
     summary = None
-    path = os.path.join(outDir, "summary.json")
-    # after a failure, only a summary this run wrote (a stopped run writes one; a crash may leave
-    # an older one)
-    if os.path.exists(path) and (code == 0 or os.path.getmtime(path) >= started):
+    if os.path.exists(path):
         with open(path) as f:
             summary = json.load(f)
     out = dict(cmd=cmd, returncode=code, cpu_s=cpu, wall_s=wall, load_avg=load, summary=summary, reused=False,
