@@ -25,3 +25,7 @@ __all__ = ["MpmEngine", "EigenErosion", "kappaRange", "VelocityBC", "ElasticMate
 from . import state as _state  # noqa: E402
 
 _state.install()  # O.save/O.load and O.saveTmp/O.loadTmp carry the EigenMPM state
+
+from .cli import installInterruptibleRun as _installInterruptibleRun  # noqa: E402
+
+_installInterruptibleRun()  # Ctrl-C stops O.run(n, True) at a step boundary in any script

@@ -315,3 +315,49 @@ def markStoppedEarly(path, note):
     plt.close(fig)
     os.replace(partial, path)
     return path
+
+
+# --- Ctrl-C in any script -------------------------------------------------------------------
+_originalRun = None
+
+
+def _interruptibleRun(self, nSteps=-1, wait=False):
+    """``O.run`` whose ``wait=True`` lets Ctrl-C through. YADE's own waits in C++ on the main
+    thread, where Python cannot handle a signal until the run ends. Here the main thread waits
+    in Python (the run in a helper thread) and, on KeyboardInterrupt, pauses the loop, lets the
+    current step end, and raises KeyboardInterrupt at that step boundary: the state is the last
+    complete step's. Errors of the run (a solver error, dt refused) are raised as before."""
+    if not wait or threading.current_thread() is not threading.main_thread():
+        return _originalRun(self, nSteps, wait)
+    outcome = {}
+
+    def work():
+        try:
+            _originalRun(self, nSteps, True)
+        except BaseException as err:  # re-raised by the main thread
+            outcome["raised"] = err
+
+    worker = threading.Thread(target=work, name="eigenmpm-O.run", daemon=True)
+    worker.start()
+    try:
+        while worker.is_alive():
+            worker.join(0.05)
+    except KeyboardInterrupt:
+        self.pause()
+        worker.join()
+        _awaitStepEnd(self)
+        raise
+    if "raised" in outcome:
+        raise outcome["raised"]
+
+
+def installInterruptibleRun():
+    """Wraps Omega.run at class level (once): Ctrl-C stops ``O.run(n, True)`` at a step
+    boundary in any script (the examples' runSteps also write their outputs then)."""
+    global _originalRun
+    if _originalRun is not None:
+        return
+    import yade.wrapper
+    _originalRun = yade.wrapper.Omega.run
+    _interruptibleRun.__doc__ = (_originalRun.__doc__ or "") + "\n\nEigenMPM: " + _interruptibleRun.__doc__
+    yade.wrapper.Omega.run = _interruptibleRun

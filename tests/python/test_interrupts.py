@@ -6,6 +6,8 @@ import os
 import re
 import signal
 import subprocess
+import sys
+import textwrap
 import threading
 import time
 import xml.etree.ElementTree as ET
@@ -187,3 +189,32 @@ def test_yade_batch_marks_a_stopped_run_failed(tmp_path):
     summary = json.load(open(tmp_path / "out" / "crack_branching" / "traction_MPa=400,endTime_us=200,quick=1"
                              / "summary.json"))
     assert "left the grid" in summary["stopped_early"]
+
+
+def test_ctrl_c_stops_a_plain_o_run_at_a_step_boundary(tmp_path):
+    """In any script (not only the examples' runSteps), Ctrl-C stops O.run(n, True) within a
+    second and raises KeyboardInterrupt there, with the solver at the iteration YADE is at."""
+    script = tmp_path / "plain.py"
+    script.write_text(textwrap.dedent(f"""
+        import os, signal, sys, threading, time
+        sys.path[:0] = [{os.path.join(ROOT, 'build', 'python')!r}, '/usr/lib/x86_64-linux-gnu/yade-double/py']
+        import yade
+        from yade import O, pack
+        import eigenmpm as em
+        mpm = em.MpmEngine(dim=2, h=0.002, thickness=0.002, threads=1)
+        mpm.fill(pack.inAlignedBox((0, 0, 0), (0.1, 0.04, 0)),
+                 em.ElasticMaterial(E=72e9, nu=0.22, rho=2440, planeStress=True))
+        O.engines = [mpm]
+        O.dt = 0.5 * mpm.criticalTimeStep()
+        sent = []
+        threading.Timer(1.0, lambda: (sent.append(time.time()), os.kill(os.getpid(), signal.SIGINT))).start()
+        try:
+            O.run(10**8, True)
+        except KeyboardInterrupt:
+            print("STOPPED", time.time() - sent[0], O.iter, mpm.solver.steps, O.running)
+    """))
+    r = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120)
+    line = [l for l in r.stdout.splitlines() if l.startswith("STOPPED")]
+    assert line, r.stdout[-2000:] + r.stderr[-2000:]
+    _, delay, it, steps, running = line[0].split()
+    assert float(delay) < 1.0 and int(it) == int(steps) > 0 and running == "False"
