@@ -14,9 +14,6 @@
 //   static double waveSpeed(const ElasticMaterial& m);   dilatational wave speed (critical dt)
 #pragma once
 #include <Eigen/Dense>
-#include <string>
-
-#include "Configurations.hpp"
 
 namespace emp {
 

@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "Configurations.hpp"
 #include "laws/NoSplit.hpp"
 #include "laws/SpectralSplit.hpp"
 #include "laws/VolumetricSplit.hpp"

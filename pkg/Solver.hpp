@@ -51,7 +51,6 @@ public:
     static_assert(D == 2 || D == 3, "EigenMPM runs in 2D or 3D");
     static constexpr int dim = D;
     static constexpr int S = Kernel::S;
-    using Kern = Kernel;
 
     explicit Solver(const SolverSettings& s);
 

@@ -217,13 +217,17 @@ class Param:
             self._refuse(value, owner, TypeError)
         return str(value)
 
-    def _vector(self, value, owner):
+    def _sequence(self, value, owner):
+        """The items of a list-like value; a string or a scalar is refused (TypeError)."""
         if isinstance(value, str):
             self._refuse(value, owner, TypeError)
         try:
-            items = list(value)
+            return list(value)
         except TypeError:
             self._refuse(value, owner, TypeError)
+
+    def _vector(self, value, owner):
+        items = self._sequence(value, owner)
         if len(items) not in (2, 3):
             self._refuse(value, owner)
         if any(isinstance(c, str) or _isBool(c) or not isinstance(c, numbers.Real) for c in items):
@@ -240,12 +244,7 @@ class Param:
         return self._whole(value, owner, lambda: (self._vector(lo, owner), self._vector(hi, owner)))
 
     def _points(self, value, owner):
-        if isinstance(value, str):
-            self._refuse(value, owner, TypeError)
-        try:
-            items = list(value)
-        except TypeError:
-            self._refuse(value, owner, TypeError)
+        items = self._sequence(value, owner)
         return self._whole(value, owner, lambda: [self._vector(p, owner) for p in items])
 
     def _whole(self, value, owner, convert):

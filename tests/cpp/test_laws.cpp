@@ -40,6 +40,15 @@ struct Case {
 };
 const Case kCases[] = {{3, false, "3D"}, {2, false, "plane strain"}, {2, true, "plane stress"}};
 
+/// Calls check<D>(rng, case) for every plane condition, with D its dimension.
+template <class F> void forEachCase(std::mt19937& rng, F&& check)
+{
+    for (const Case& c : kCases) {
+        if (c.dim == 2) check(std::integral_constant<int, 2>{}, rng, c);
+        else check(std::integral_constant<int, 3>{}, rng, c);
+    }
+}
+
 ElasticMaterial material(std::mt19937& rng, const Case& c, double nuMin = -0.9)
 {
     std::uniform_real_distribution<double> unu(nuMin, 0.49), uE(0.5, 3.0);
@@ -68,10 +77,7 @@ template <class L, int D> void energyIdentities(std::mt19937& rng, const Case& c
 TYPED_TEST(LawTest, SplitPartsAddUpToTheStrainEnergyAndHookesLaw)
 {
     std::mt19937 rng(11);
-    for (const Case& c : kCases) {
-        if (c.dim == 2) energyIdentities<TypeParam, 2>(rng, c);
-        else energyIdentities<TypeParam, 3>(rng, c);
-    }
+    forEachCase(rng, [](auto dim, std::mt19937& r, const Case& c) { energyIdentities<TypeParam, decltype(dim)::value>(r, c); });
 }
 
 template <class L, int D> void derivatives(std::mt19937& rng, const Case& c)
@@ -96,10 +102,7 @@ template <class L, int D> void derivatives(std::mt19937& rng, const Case& c)
 TYPED_TEST(LawTest, StressesAreTheDerivativesOfTheSplitEnergies)
 {
     std::mt19937 rng(12);
-    for (const Case& c : kCases) {
-        if (c.dim == 2) derivatives<TypeParam, 2>(rng, c);
-        else derivatives<TypeParam, 3>(rng, c);
-    }
+    forEachCase(rng, [](auto dim, std::mt19937& r, const Case& c) { derivatives<TypeParam, decltype(dim)::value>(r, c); });
 }
 
 template <class L, int D> void objectivity(std::mt19937& rng, const Case& c)
@@ -120,10 +123,7 @@ template <class L, int D> void objectivity(std::mt19937& rng, const Case& c)
 TYPED_TEST(LawTest, RotatingTheStrainRotatesTheStress)
 {
     std::mt19937 rng(13);
-    for (const Case& c : kCases) {
-        if (c.dim == 2) objectivity<TypeParam, 2>(rng, c);
-        else objectivity<TypeParam, 3>(rng, c);
-    }
+    forEachCase(rng, [](auto dim, std::mt19937& r, const Case& c) { objectivity<TypeParam, decltype(dim)::value>(r, c); });
 }
 
 /// A compressive strain of the kind the law promises to keep free of tensile energy, or of any
@@ -164,10 +164,7 @@ template <class L, int D> void promise(std::mt19937& rng, const Case& c)
 TYPED_TEST(LawTest, CompressionTheLawPromisesToSpareHasNoTensileEnergy)
 {
     std::mt19937 rng(14);
-    for (const Case& c : kCases) {
-        if (c.dim == 2) promise<TypeParam, 2>(rng, c);
-        else promise<TypeParam, 3>(rng, c);
-    }
+    forEachCase(rng, [](auto dim, std::mt19937& r, const Case& c) { promise<TypeParam, decltype(dim)::value>(r, c); });
 }
 
 template <class L, int D> void erodedStressNeverPulls(std::mt19937& rng, const Case& c)
@@ -185,10 +182,7 @@ template <class L, int D> void erodedStressNeverPulls(std::mt19937& rng, const C
 TYPED_TEST(LawTest, StressOfAnErodedPointNeverPulls)
 {
     std::mt19937 rng(15);
-    for (const Case& c : kCases) {
-        if (c.dim == 2) erodedStressNeverPulls<TypeParam, 2>(rng, c);
-        else erodedStressNeverPulls<TypeParam, 3>(rng, c);
-    }
+    forEachCase(rng, [](auto dim, std::mt19937& r, const Case& c) { erodedStressNeverPulls<TypeParam, decltype(dim)::value>(r, c); });
 }
 
 TYPED_TEST(LawTest, OutOfPlaneStressOfPlaneStrainAndWaveSpeed)
