@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
+#include <type_traits>
 
 #include "CrackTransport.hpp"
 #include "Errors.hpp"
@@ -197,23 +198,35 @@ template <int D, class K> EMP_ALWAYS_INLINE void Solver<D, K>::updateStress(int 
 }
 
 template <int D, class K>
+template <bool withGravity>
 EMP_ALWAYS_INLINE void Solver<D, K>::scatterInternalForce(int p, const St& st, const Vec<D>& gravity)
 {
-    // f_I += N_I m_p b - V_p sigma_p grad N_I (Eqs 13-14).
+    // f_I += N_I m_p b - V_p sigma_p grad N_I (Eqs 13-14). Without gravity the body force term
+    // is left out (the same sums: f + (0 - x) is f - x in floating point).
     auto& g = grid_;
     const Mat<D> vs = points_.volume[p] * points_.stress[p];
-    const Vec<D> fb = points_.mass[p] * gravity;
-    st.forEach(g, [&](int I, double N, const Vec<D>& grad) { g.force[I] += N * fb - vs * grad; });
+    if constexpr (withGravity) {
+        const Vec<D> fb = points_.mass[p] * gravity;
+        st.forEach(g, [&](int I, double N, const Vec<D>& grad) { g.force[I] += N * fb - vs * grad; });
+    } else {
+        st.forEach(g, [&](int I, double, const Vec<D>& grad) { g.force[I] -= vs * grad; });
+    }
 }
 
 template <int D, class K> void Solver<D, K>::stressAndInternalForce(double dt, int nThreads)
 {
     const Vec<D> gravity = settings_.gravity.head<D>();
     const auto& order = schedule_.order();
-    schedule_.scatter(nThreads, [&](int k) {
-        updateStress(order[k], stencil_[k], dt);
-        scatterInternalForce(order[k], stencil_[k], gravity);
-    });
+    const auto pass = [&](auto withGravity) {
+        schedule_.scatter(nThreads, [&](int k) {
+            updateStress(order[k], stencil_[k], dt);
+            scatterInternalForce<decltype(withGravity)::value>(order[k], stencil_[k], gravity);
+        });
+    };
+    if (gravity.isZero(0.0))
+        pass(std::false_type{});
+    else
+        pass(std::true_type{});
 }
 
 template <int D, class K> typename Solver<D, K>::St Solver<D, K>::stencilOf(int p)
@@ -277,10 +290,14 @@ template <int D, class K> void Solver<D, K>::updateGrid(double dt, int nThreads)
 template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThreads)
 {
     // FLIP velocity update (Eq 30) and position from nodal momentum (Eq 31). Each point writes
-    // only itself; the loop runs in the binned order to stream the stencils.
+    // only itself; the loop runs in the binned order to stream the stencils. The checks of the
+    // new state cost no branch per point: the loop keeps the bounding box of the positions and
+    // a sum of every value checked (a non-finite value makes it non-finite); only when either
+    // is out of bounds does a second, serial scan find the first point at fault.
     struct Check {
-        int firstNonFinite = INT_MAX, firstOffGrid = INT_MAX;
-        double vmax2 = 0;
+        Vec<D> lo = Vec<D>::Constant(std::numeric_limits<double>::infinity());
+        Vec<D> hi = Vec<D>::Constant(-std::numeric_limits<double>::infinity());
+        double sum = 0, vmax2 = 0;
     };
     auto& P = points_;
     const auto& g = grid_;
@@ -294,39 +311,50 @@ template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThre
                 a += N * g.force[I];
                 vg += N * g.velocity[I];
             });
-            P.v[p] += dt * a;
-            P.x[p] += dt * vg;
-            if (!P.v[p].allFinite() || !P.x[p].allFinite() || !P.stress[p].allFinite()) {
-                acc.firstNonFinite = std::min(acc.firstNonFinite, p);
-                return;
-            }
-            for (int d = 0; d < D; ++d) {
-                const int b = K::base((P.x[p][d] - g.origin[d]) * g.invh);
-                if (b < 0 || b > g.n[d] - S) acc.firstOffGrid = std::min(acc.firstOffGrid, p);
-            }
-            acc.vmax2 = std::max(acc.vmax2, P.v[p].squaredNorm());
+            const Vec<D> v = P.v[p] + dt * a, x = P.x[p] + dt * vg;
+            P.v[p] = v;
+            P.x[p] = x;
+            acc.lo = acc.lo.cwiseMin(x);
+            acc.hi = acc.hi.cwiseMax(x);
+            acc.sum += v.sum() + x.sum() + P.stress[p].sum();
+            acc.vmax2 = std::max(acc.vmax2, v.squaredNorm());
         },
         [](Check& total, const Check& part) {
-            total.firstNonFinite = std::min(total.firstNonFinite, part.firstNonFinite);
-            total.firstOffGrid = std::min(total.firstOffGrid, part.firstOffGrid);
+            total.lo = total.lo.cwiseMin(part.lo);
+            total.hi = total.hi.cwiseMax(part.hi);
+            total.sum += part.sum;
             total.vmax2 = std::max(total.vmax2, part.vmax2);
         });
     maxSpeed_ = std::sqrt(c.vmax2);
     time_ += dt;
     ++steps_;
-    if (c.firstNonFinite != INT_MAX) {
-        std::ostringstream s;
-        s << "EigenMPM: a non-finite value appeared in step " << steps_ << " (t = " << time_
-          << " s) at point id " << c.firstNonFinite << " (stress, velocity or position is NaN or "
-          << "infinite); check the loads, the material constants and dt";
-        throw SimulationError(s.str());
+    const auto offGrid = [&](const Vec<D>& x) {
+        for (int d = 0; d < D; ++d) {
+            const int b = K::base((x[d] - g.origin[d]) * g.invh);  // monotone in x
+            if (!(b >= 0 && b <= g.n[d] - S)) return true;
+        }
+        return false;
+    };
+    if (!std::isfinite(c.sum)) {
+        int first = INT_MAX;
+        for (std::size_t p = 0; p < P.size() && first == INT_MAX; ++p)
+            if (!P.v[p].allFinite() || !P.x[p].allFinite() || !P.stress[p].allFinite()) first = static_cast<int>(p);
+        if (first != INT_MAX) {  // (else the sum overflowed: every value is finite)
+            std::ostringstream s;
+            s << "EigenMPM: a non-finite value appeared in step " << steps_ << " (t = " << time_
+              << " s) at point id " << first << " (stress, velocity or position is NaN or "
+              << "infinite); check the loads, the material constants and dt";
+            throw SimulationError(s.str());
+        }
     }
-    if (c.firstOffGrid != INT_MAX) {
+    if (offGrid(c.lo) || offGrid(c.hi)) {
+        int first = 0;
+        while (!offGrid(P.x[first])) ++first;
         Vec<D> hiCorner;
         for (int d = 0; d < D; ++d) hiCorner[d] = g.origin[d] + (g.n[d] - 1) * g.h;
         std::ostringstream s;
-        s << "EigenMPM: point id " << c.firstOffGrid << " left the grid in step " << steps_ << " (t = "
-          << time_ << " s): position " << str<D>(P.x[c.firstOffGrid]) << ", grid nodes span "
+        s << "EigenMPM: point id " << first << " left the grid in step " << steps_ << " (t = "
+          << time_ << " s): position " << str<D>(P.x[first]) << ", grid nodes span "
           << str<D>(g.origin) << " to " << str<D>(hiCorner)
           << "; give a larger domain (the point is kept, the run stops)";
         throw SimulationError(s.str());

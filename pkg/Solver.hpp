@@ -145,7 +145,7 @@ private:
 
     // Per-point pieces of the fused stress/force pass.
     void updateStress(int p, const St& st, double dt);
-    void scatterInternalForce(int p, const St& st, const Vec<D>& gravity);
+    template <bool withGravity> void scatterInternalForce(int p, const St& st, const Vec<D>& gravity);
     /// The stencil of one point computed on its own (serial stages: erosion, tractions).
     St stencilOf(int p);
 

@@ -23,14 +23,18 @@ struct SpectralSplit {
         const double d = 0.5 * (e(0, 0) - e(1, 1));
         const double r = std::sqrt(d * d + e(0, 1) * e(0, 1));
         l << m + r, m - r;
-        if (l(1) >= 0) {
-            ep = e;
-        } else if (l(0) <= 0) {
-            ep.setZero();
-        } else {
-            // l0 > 0 > l1, so the eigenvalues differ and the projector on n0 is (e - l1 I)/(l0 - l1).
-            ep = (l(0) / (l(0) - l(1))) * (e - l(1) * Mat<2>::Identity());
-        }
+        // Both principal strains >= 0: eps+ = eps; both <= 0: 0; else l0 > 0 > l1, the values
+        // differ and the projector on n0 is (e - l1 I)/(l0 - l1). Written as selects rather than
+        // branches: in a cracking or vibrating body the sign pattern changes from point to point
+        // and a branch would be mispredicted often. (The quotient of the unused case is never
+        // read; its denominator is kept nonzero.)
+        const bool allTensile = l(1) >= 0, allCompressive = l(0) <= 0;
+        const double q = l(0) / (allTensile || allCompressive ? 1.0 : l(0) - l(1));
+        const double s = allTensile ? 1.0 : allCompressive ? 0.0 : q;
+        const double shift = allTensile || allCompressive ? 0.0 : l(1);
+        ep(0, 0) = s * (e(0, 0) - shift);
+        ep(1, 1) = s * (e(1, 1) - shift);
+        ep(0, 1) = ep(1, 0) = s * e(0, 1);
     }
 
     static void tensilePart(const Mat<3>& e, Vec<3>& l, Mat<3>& ep)
