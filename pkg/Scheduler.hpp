@@ -69,6 +69,22 @@ public:
         }
     }
 
+    /// scatter in runs: calls f(begin, end) for consecutive ranges of at most `run` slots of one
+    /// strip, in slot order. A pass can then do its per-point work for the whole run before it
+    /// scatters: points are independent until they write, so their long chains of dependent
+    /// arithmetic (the law's square roots and divisions) overlap in the processor instead of
+    /// following each other; the order of the contributions to each node is that of scatter.
+    template <class F> void scatterRuns(int nThreads, int run, F&& f) const
+    {
+        const int numStrips = static_cast<int>(stripStart_.size()) - 1;
+        for (int colour = 0; colour < 2; ++colour) {
+#pragma omp parallel for schedule(dynamic, 1) num_threads(nThreads)
+            for (int s = colour; s < numStrips; s += 2)
+                for (int k = stripStart_[s]; k < stripStart_[s + 1]; k += run)
+                    f(k, std::min(k + run, stripStart_[s + 1]));
+        }
+    }
+
     /// Calls f(slot, acc) for every slot where f writes only its own point, with a per-worker
     /// accumulator acc (initialised to init) that is then folded by combine(acc, workerAcc).
     /// combine must be order-independent (min, max) for results independent of the thread count.

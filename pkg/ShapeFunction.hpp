@@ -17,6 +17,13 @@
 
 namespace emp {
 
+/// W doubles as one vector (GCC/Clang vector extensions: element-wise arithmetic, comparisons
+/// and selects, on SIMD registers where the target has them and element by element elsewhere).
+template <int W> struct Lanes;
+template <> struct Lanes<2> {
+    typedef double type __attribute__((vector_size(2 * sizeof(double))));
+};
+
 /// Standard MPM hat function: support of 2 nodes per direction, gradient jumps at cell faces.
 struct LinearKernel {
     static constexpr int S = 2;  ///< nodes per direction in the support
@@ -34,6 +41,11 @@ struct LinearKernel {
         dw[0] = -1.0;
         dw[1] = 1.0;
         return b;
+    }
+    /// eval in each of the D directions (Stencil::compute).
+    template <int D> static inline void evalAll(const double* xi, double lp, int* base, double (*w)[S], double (*dw)[S])
+    {
+        for (int d = 0; d < D; ++d) base[d] = eval(xi[d], lp, w[d], dw[d]);
     }
 };
 
@@ -72,6 +84,47 @@ struct GimpKernel {
         const int c = static_cast<int>(std::floor(xi + 0.5));
         for (int k = 0; k < 3; ++k) w[k] = s(xi - (c - 1 + k), lp, dw[k]);
         return c - 1;
+    }
+    /// eval in each of the D directions, as the solver's passes call it (Stencil::compute): two
+    /// directions at a time are the lanes of one vector, and s()'s pieces are chosen by selects, not
+    /// branches. A point of an undeformed uGIMP lattice sits exactly on the boundaries between
+    /// the pieces (|r| = lp, 1 - lp, 1 + lp), so a branch would be mispredicted about half the
+    /// time; and the lanes share the instructions. The divisions by lp are products with its
+    /// reciprocals: bitwise eval() when lp is a power of two (ppc = 1, 2, 4, ...), else within
+    /// an ulp or two (test_shape_function.cpp).
+    template <int D> static inline void evalAll(const double* xi, double lp, int* base, double (*w)[S], double (*dw)[S])
+    {
+        evalPair(xi, D > 1 ? 2 : 1, lp, base, w, dw);
+        if constexpr (D == 3) evalPair(xi + 2, 1, lp, base + 2, w + 2, dw + 2);
+    }
+
+private:
+    /// evalAll for `count` (1 or 2) directions, one per lane of a two-double vector (an SSE2
+    /// register: wider vectors of generic code are split badly on the baseline x86-64 target).
+    static inline void evalPair(const double* xi, int count, double lp, int* base, double (*w)[S], double (*dw)[S])
+    {
+        using V = Lanes<2>::type;
+        V x = {}, first = {};  // xi and the index of the first support node, per lane
+        for (int d = 0; d < count; ++d) {
+            base[d] = static_cast<int>(std::floor(xi[d] + 0.5)) - 1;
+            x[d] = xi[d];
+            first[d] = base[d];
+        }
+        const double i1 = 1.0 / lp, i2 = 0.5 * i1, i4 = 0.25 * i1;
+        const V zero = {}, one = zero + 1.0;
+        for (int k = 0; k < S; ++k) {
+            const V r = x - (first + k);
+            const V a = r < 0.0 ? -r : r, sg = r < 0.0 ? -one : one;
+            const V q = 1.0 + lp - a;
+            const V wi = 1.0 - (r * r + lp * lp) * i2, wo = q * q * i4;
+            const V di = -r * i1, dO = -sg * q * i2;
+            const V wv = a < lp ? wi : a <= 1.0 - lp ? 1.0 - a : a < 1.0 + lp ? wo : zero;
+            const V dv = a < lp ? di : a <= 1.0 - lp ? -sg : a < 1.0 + lp ? dO : zero;
+            for (int d = 0; d < count; ++d) {
+                w[d][k] = wv[d];
+                dw[d][k] = dv[d];
+            }
+        }
     }
 };
 

@@ -215,12 +215,16 @@ EMP_ALWAYS_INLINE void Solver<D, K>::scatterInternalForce(int p, const St& st, c
 
 template <int D, class K> void Solver<D, K>::stressAndInternalForce(double dt, int nThreads)
 {
+    // In runs of points (Scheduler::scatterRuns): the stresses of a run, then its forces. The
+    // run's stencils stay in the L1 cache between the two loops.
+    constexpr int stressRun = 16;
     const Vec<D> gravity = settings_.gravity.head<D>();
     const auto& order = schedule_.order();
     const auto pass = [&](auto withGravity) {
-        schedule_.scatter(nThreads, [&](int k) {
-            updateStress(order[k], stencil_[k], dt);
-            scatterInternalForce<decltype(withGravity)::value>(order[k], stencil_[k], gravity);
+        schedule_.scatterRuns(nThreads, stressRun, [&](int begin, int end) {
+            for (int k = begin; k < end; ++k) updateStress(order[k], stencil_[k], dt);
+            for (int k = begin; k < end; ++k)
+                scatterInternalForce<decltype(withGravity)::value>(order[k], stencil_[k], gravity);
         });
     };
     if (gravity.isZero(0.0))
@@ -347,9 +351,9 @@ template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThre
             throw SimulationError(s.str());
         }
     }
-    if (offGrid(c.lo) || offGrid(c.hi)) {
+    if (P.size() > 0 && (offGrid(c.lo) || offGrid(c.hi))) {  // (no point: the box is empty)
         int first = 0;
-        while (!offGrid(P.x[first])) ++first;
+        while (!offGrid(P.x[first])) ++first;  // the box's corner is one point's coordinate
         Vec<D> hiCorner;
         for (int d = 0; d < D; ++d) hiCorner[d] = g.origin[d] + (g.n[d] - 1) * g.h;
         std::ostringstream s;

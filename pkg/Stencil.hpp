@@ -29,7 +29,9 @@ template <int D, class K> struct Stencil {
     /// Weights and derivatives of the point at x for the particle half-width lp (cells).
     void compute(const Vec<D>& x, const Grid<D>& g, double lp)
     {
-        for (int d = 0; d < D; ++d) base[d] = K::eval((x[d] - g.origin[d]) * g.invh, lp, w[d], dw[d]);
+        double xi[D];
+        for (int d = 0; d < D; ++d) xi[d] = (x[d] - g.origin[d]) * g.invh;
+        K::template evalAll<D>(xi, lp, base, w, dw);
         remap = -1;
     }
 

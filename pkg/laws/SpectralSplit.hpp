@@ -34,7 +34,8 @@ struct SpectralSplit {
         const double shift = allTensile || allCompressive ? 0.0 : l(1);
         ep(0, 0) = s * (e(0, 0) - shift);
         ep(1, 1) = s * (e(1, 1) - shift);
-        ep(0, 1) = ep(1, 0) = s * e(0, 1);
+        ep(0, 1) = s * e(0, 1);
+        ep(1, 0) = s * e(1, 0);
     }
 
     static void tensilePart(const Mat<3>& e, Vec<3>& l, Mat<3>& ep)

@@ -60,3 +60,48 @@ TYPED_TEST(KernelTraitsTest, GradientJumpsAtNodesOnlyWhenDeclared)
 }
 
 }  // namespace
+
+namespace {
+
+// The solver's passes evaluate the kernel with evalAll (all directions at once, selects instead
+// of branches); eval is the plain version. They agree bitwise when lp is a power of two
+// (ppc = 1, 2, 4, 8) and within two ulps of the largest weight otherwise (ppc = 3, 5, 6), on
+// random positions and on the lattice sites of an undeformed block, where the pieces of the
+// uGIMP function meet.
+template <int D, class K> void checkEvalAll()
+{
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<double> u(-3.0, 40.0);
+    for (int ppc = 1; ppc <= 8; ++ppc) {
+        const double lp = 0.5 / ppc;
+        const bool exact = (ppc & (ppc - 1)) == 0;
+        for (int i = 0; i < 20000; ++i) {
+            double xi[D];
+            for (int d = 0; d < D; ++d)
+                xi[d] = i % 2 ? u(rng) : std::floor(u(rng)) + (0.5 + (i / 2) % ppc) / ppc;  // lattice sites
+            int base[D];
+            double w[D][K::S], dw[D][K::S];
+            K::template evalAll<D>(xi, lp, base, w, dw);
+            for (int d = 0; d < D; ++d) {
+                double we[K::S], dwe[K::S];
+                ASSERT_EQ(base[d], K::eval(xi[d], lp, we, dwe)) << K::name << " xi = " << xi[d];
+                for (int k = 0; k < K::S; ++k) {
+                    if (exact) {
+                        ASSERT_EQ(w[d][k], we[k]) << K::name << " ppc " << ppc << " xi = " << xi[d] << " node " << k;
+                        ASSERT_EQ(dw[d][k], dwe[k]) << K::name << " ppc " << ppc << " xi = " << xi[d] << " node " << k;
+                    } else {
+                        ASSERT_NEAR(w[d][k], we[k], 4.5e-16) << K::name << " ppc " << ppc << " xi = " << xi[d];
+                        ASSERT_NEAR(dw[d][k], dwe[k], 4.5e-16) << K::name << " ppc " << ppc << " xi = " << xi[d];
+                    }
+                }
+            }
+        }
+    }
+}
+
+TYPED_TEST(KernelTraitsTest, EvalAllIsEvalInEveryDirection)
+{
+    checkEvalAll<TypeParam::D, typename TypeParam::K>();
+}
+
+}  // namespace
