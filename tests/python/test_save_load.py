@@ -310,3 +310,12 @@ def test_lshaped_panel_resumes_from_its_checkpoint_to_the_same_end_state(tmp_pat
                            ["checkpoint-000011400", "checkpoint-000017100"],
                            ["load_displacement.csv", "eroded.csv"])
     assert sa["steps"] == 17162 and sa["eroded_count"] > 0 and sa["initiation_load_kN"] is not None
+
+
+def test_vibrating_bar_resumes_from_its_checkpoint_to_the_same_end_state(tmp_path):
+    """vibrating_bar.py --quick (481 steps) --checkpoint-every 200, then --resume from iteration
+    400: the same summary, whose frequency comes from the modal record of the whole run (most of it
+    saved in the checkpoint)."""
+    sa, _ = _resumeExample(tmp_path, "verification/vibrating_bar.py", ["plot=0"], 200,
+                           ["checkpoint-000000200", "checkpoint-000000400"], [])
+    assert sa["steps"] == 481 and sa["rel_error"] < 0.01
