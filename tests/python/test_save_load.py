@@ -312,6 +312,30 @@ def test_lshaped_panel_resumes_from_its_checkpoint_to_the_same_end_state(tmp_pat
     assert sa["steps"] == 17162 and sa["eroded_count"] > 0 and sa["initiation_load_kN"] is not None
 
 
+def _yade(script, args):
+    """Runs examples/<script> with args under yade (the built package on PYTHONPATH); returns the
+    completed process, which must have exited 0."""
+    env = dict(os.environ, PYTHONPATH=os.path.join(ROOT, "build", "python"))
+    r = subprocess.run(["yade", "-n", "-x", os.path.join(ROOT, "examples", script)] + list(args), env=env,
+                       capture_output=True, text=True, timeout=600, stdin=subprocess.DEVNULL)
+    assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-2000:]
+    return r
+
+
+def _sameSummaries(a, b, name="summary.json", times=("wall_time_s", "particle_steps_per_s")):
+    """The JSON files `name` in folders a and b hold the same values, but the wall times."""
+    import json
+    sa, sb = (json.loads((d / name).read_text()) for d in (a, b))
+    rows = (sa, sb) if isinstance(sa, list) else ([sa], [sb])
+    assert len(rows[0]) == len(rows[1])
+    for ra, rb in zip(*rows):
+        assert sorted(ra) == sorted(rb)
+        for k in ra:
+            if k not in times:
+                assert ra[k] == rb[k] or ra[k] != ra[k] and rb[k] != rb[k], k  # NaN == NaN here
+    return sa
+
+
 def test_vibrating_bar_resumes_from_its_checkpoint_to_the_same_end_state(tmp_path):
     """vibrating_bar.py --quick (481 steps) --checkpoint-every 200, then --resume from iteration
     400: the same summary, whose frequency comes from the modal record of the whole run (most of it
@@ -319,3 +343,31 @@ def test_vibrating_bar_resumes_from_its_checkpoint_to_the_same_end_state(tmp_pat
     sa, _ = _resumeExample(tmp_path, "verification/vibrating_bar.py", ["plot=0"], 200,
                            ["checkpoint-000000200", "checkpoint-000000400"], [])
     assert sa["steps"] == 481 and sa["rel_error"] < 0.01
+
+
+def test_bar_convergence_resumes_an_interrupted_sweep_to_the_same_table(tmp_path):
+    """bar_convergence.py --quick (six runs, 241 to 961 steps) --checkpoint-every 300: each run
+    keeps its checkpoints, its end among them, in its own folder. With the sweep made to look
+    stopped in its fifth run (linear, 20 cells: its end removed, checkpoint 300 left) before the
+    sixth began (its folder removed), --resume reads the four finished runs back from their ends
+    without running them, continues the fifth from 300 and runs the sixth from the start,
+    checkpointed at the sweep's period (300, learnt from the resumed runs): the same table."""
+    a, b = tmp_path / "a", tmp_path / "b"
+    script = "verification/bar_convergence.py"
+    _yade(script, ["--quick", "--out", str(a), "--checkpoint-every", "300"])
+    ck = a / "checkpoints"
+    assert sorted(os.listdir(ck)) == ["linear-10", "linear-20", "linear-40", "uGIMP-10", "uGIMP-20", "uGIMP-40"]
+    assert sorted(os.listdir(ck / "linear-20")) == ["checkpoint-000000300", "checkpoint-000000481"]
+    import shutil
+    shutil.rmtree(ck / "linear-20" / "checkpoint-000000481")
+    shutil.rmtree(ck / "linear-40")
+    ends = {run: (ck / run / f"checkpoint-{steps:09d}").stat().st_mtime_ns
+            for run, steps in (("uGIMP-10", 241), ("uGIMP-20", 481), ("uGIMP-40", 961), ("linear-10", 241))}
+    _yade(script, ["--quick", "--out", str(b), "--resume", str(ck)])
+    assert (a / "convergence.md").read_bytes() == (b / "convergence.md").read_bytes()
+    rows = _sameSummaries(a, b, "convergence.json")
+    assert len(rows) == 6 and rows[-1]["steps"] == 961
+    assert sorted(os.listdir(ck / "linear-20")) == ["checkpoint-000000300", "checkpoint-000000481"]
+    assert sorted(os.listdir(ck / "linear-40")) == ["checkpoint-000000900", "checkpoint-000000961"]
+    assert {run: (ck / run / f"checkpoint-{steps:09d}").stat().st_mtime_ns
+            for run, steps in (("uGIMP-10", 241), ("uGIMP-20", 481), ("uGIMP-40", 961), ("linear-10", 241))} == ends
