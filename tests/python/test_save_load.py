@@ -345,6 +345,26 @@ def test_vibrating_bar_resumes_from_its_checkpoint_to_the_same_end_state(tmp_pat
     assert sa["steps"] == 481 and sa["rel_error"] < 0.01
 
 
+def test_precracked_bar_resumes_the_unfinished_bar_and_reads_the_finished_one_back(tmp_path):
+    """precracked_bar.py --quick (two bars of 401 steps) --checkpoint-every 150: each bar keeps
+    its checkpoints 300 and 401 (its end) in its own folder. With the intact bar's end removed (the
+    pair stopped in the intact bar after iteration 300), --resume continues the intact bar from 300
+    and reads the cracked one back from its end without running it: the same summary."""
+    a, b = tmp_path / "a", tmp_path / "b"
+    script = "verification/precracked_bar.py"
+    _yade(script, ["--quick", "plot=0", "--out", str(a), "--checkpoint-every", "150"])
+    for bar in ("cracked", "intact"):
+        assert sorted(os.listdir(a / "checkpoints" / bar)) == ["checkpoint-000000300", "checkpoint-000000401"]
+    import shutil
+    shutil.rmtree(a / "checkpoints" / "intact" / "checkpoint-000000401")
+    done = (a / "checkpoints" / "cracked" / "checkpoint-000000401").stat().st_mtime_ns
+    _yade(script, ["--quick", "plot=0", "--out", str(b), "--resume", str(a / "checkpoints")])
+    s = _sameSummaries(a, b)
+    assert s["steps"] == 401 and s["gap_m"] > 0 and s["reaction_intact_N"] is not None
+    assert sorted(os.listdir(a / "checkpoints" / "intact")) == ["checkpoint-000000300", "checkpoint-000000401"]
+    assert (a / "checkpoints" / "cracked" / "checkpoint-000000401").stat().st_mtime_ns == done
+
+
 def test_bar_convergence_resumes_an_interrupted_sweep_to_the_same_table(tmp_path):
     """bar_convergence.py --quick (six runs, 241 to 961 steps) --checkpoint-every 300: each run
     keeps its checkpoints, its end among them, in its own folder. With the sweep made to look
