@@ -345,6 +345,24 @@ def test_vibrating_bar_resumes_from_its_checkpoint_to_the_same_end_state(tmp_pat
     assert sa["steps"] == 481 and sa["rel_error"] < 0.01
 
 
+def test_lpanel_corner_resumes_in_the_ramp_or_in_the_load_record_to_the_same_end_state(tmp_path):
+    """lpanel_corner.py h_mm=10 (a ramp of 2042 steps, then 82 recording the load)
+    --checkpoint-every 1050: resumed from iteration 2100 (in the load record, which the checkpoint
+    holds) and, once that checkpoint is removed, from iteration 1050 (in the ramp; the record is
+    made after it): the same summary."""
+    a, b, c = tmp_path / "a", tmp_path / "b", tmp_path / "c"
+    script = "verification/lpanel_corner.py"
+    _yade(script, ["h_mm=10", "--out", str(a), "--checkpoint-every", "1050"])
+    assert sorted(os.listdir(a / "checkpoints")) == ["checkpoint-000001050", "checkpoint-000002100"]
+    _yade(script, ["h_mm=10", "--out", str(b), "--resume", str(a / "checkpoints")])
+    import shutil
+    shutil.rmtree(a / "checkpoints" / "checkpoint-000002100")
+    _yade(script, ["h_mm=10", "--out", str(c), "--resume", str(a / "checkpoints")])
+    s = _sameSummaries(a, b)
+    _sameSummaries(a, c)
+    assert s["steps"] == 2124 and s["load_kN"] > 0
+
+
 def test_precracked_bar_resumes_the_unfinished_bar_and_reads_the_finished_one_back(tmp_path):
     """precracked_bar.py --quick (two bars of 401 steps) --checkpoint-every 150: each bar keeps
     its checkpoints 300 and 401 (its end) in its own folder. With the intact bar's end removed (the
