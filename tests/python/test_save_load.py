@@ -336,6 +336,69 @@ def _sameSummaries(a, b, name="summary.json", times=("wall_time_s", "particle_st
     return sa
 
 
+# Timings of a DEM/MPM comparison's summary: they count the resumed part only.
+DEM_TIMES = ("wall_time_s", "particle_steps_per_s", "cpu_time_s", "mpm_wall_s", "dem_wall_s", "engine_wall_s",
+             "mpm_particle_steps_per_s", "dem_particle_steps_per_s")
+
+
+def _resumeDem(tmp_path, script, params, every, checkpoints):
+    """Runs the DEM/MPM comparison examples/<script> --quick model=jcfpm with params and
+    --checkpoint-every `every`, then again with --resume from its checkpoints (the names
+    `checkpoints` expected). The MPM side continues bitwise: the same MPM columns of
+    load_displacement.csv and the same summary values. The DEM side continues to round-off only:
+    YADE's load restores the bodies and bonds bitwise, but its collider rebuilds its lists and the
+    contacts are then visited, and their forces summed, in another order (measured on the beam:
+    positions and velocities 3e-17 apart 20 steps after a load, 2e-10 after 100 while bonds break), so its
+    floating-point values are compared to 1e-6 and its counts exactly. Returns the summary."""
+    a, b = tmp_path / "a", tmp_path / "b"
+    args = ["--quick", "model=jcfpm", "calibrate=0"] + list(params)
+    _yade(script, args + ["--out", str(a), "--checkpoint-every", str(every)])
+    _yade(script, args + ["--out", str(b), "--resume", str(a / "checkpoints")])
+    assert sorted(os.listdir(a / "checkpoints")) == checkpoints
+    import json
+    sa, sb = (json.loads((d / "summary.json").read_text()) for d in (a, b))
+    assert sorted(sa) == sorted(sb)
+    for k in sa:
+        if k in DEM_TIMES:
+            continue
+        if k.startswith("dem_") and isinstance(sa[k], float):
+            assert sb[k] == pytest.approx(sa[k], rel=1e-6, abs=1e-300), k
+        else:
+            assert sa[k] == sb[k], k
+    ca, cb = (np.loadtxt(d / "load_displacement.csv", delimiter=",", skiprows=1) for d in (a, b))
+    assert ca.shape == cb.shape
+    assert np.array_equal(ca[:, :3], cb[:, :3])  # time, MPM displacement and load
+    assert np.allclose(cb[:, 3:], ca[:, 3:], rtol=1e-5, atol=1e-12)  # DEM displacement and load
+    return sa
+
+
+def test_dem_three_point_bending_resumes_from_its_checkpoint_to_the_same_end_state(tmp_path):
+    """dem_three_point_bending.py (JCFpm) to 0.1 mm (4199 steps) --checkpoint-every 2000, then
+    --resume from the newest checkpoint (iteration 4000, DEM bonds broken): the same records
+    of both models and the same summary (the DEM's to round-off, see _resumeDem); the broken bonds
+    and the JCFpm crack energy come from the loaded scene, not from the copies of the DEM's engines
+    that the checkpoint holds with the pair."""
+    s = _resumeDem(tmp_path, "dem_three_point_bending.py", ["endDisplacement_mm=0.1"], 2000,
+                   ["checkpoint-000002000", "checkpoint-000004000"])
+    assert s["steps"] == 4199 and s["dem_broken_bonds"] > 0 and s["dem_dissipated_energy_J"] > 0
+
+
+def test_dem_lshaped_panel_resumes_from_its_checkpoint_to_the_same_end_state(tmp_path):
+    """dem_lshaped_panel.py (JCFpm) to 0.15 mm (2904 steps) --checkpoint-every 1400, then --resume
+    from iteration 2800 (DEM bonds broken from about 0.1 mm): as for the beam. With CPM (the
+    default) both options are refused: YADE does not save the damage and shear strain of CPM
+    bonds, so a resumed CPM run would not continue the same run."""
+    s = _resumeDem(tmp_path, "dem_lshaped_panel.py", ["endDisplacement_mm=0.15"], 1400,
+                   ["checkpoint-000001400", "checkpoint-000002800"])
+    assert s["steps"] == 2904 and s["dem_broken_bonds"] > 0
+    env = dict(os.environ, PYTHONPATH=os.path.join(ROOT, "build", "python"))
+    r = subprocess.run(["yade", "-n", "-x", os.path.join(ROOT, "examples", "dem_lshaped_panel.py"), "--quick",
+                        "--out", str(tmp_path / "c"), "--checkpoint-every", "100"], env=env, capture_output=True,
+                       text=True, timeout=600, stdin=subprocess.DEVNULL)
+    assert r.returncode != 0 and "need model=jcfpm" in r.stdout + r.stderr
+    assert not (tmp_path / "c" / "checkpoints").exists()
+
+
 def test_vibrating_bar_resumes_from_its_checkpoint_to_the_same_end_state(tmp_path):
     """vibrating_bar.py --quick (481 steps) --checkpoint-every 200, then --resume from iteration
     400: the same summary, whose frequency comes from the modal record of the whole run (most of it
