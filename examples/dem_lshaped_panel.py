@@ -21,7 +21,17 @@ eigenerosion has no strength parameter).
 Run::
 
     yade -n -x examples/dem_lshaped_panel.py [--quick] [--out DIR] [param=value ...]
+        [--checkpoint-every N] [--resume DIR/checkpoints]
     yade-batch table.txt examples/dem_lshaped_panel.py
+
+--checkpoint-every N saves the whole scene (both models, the DEM's bodies, bonds and engines
+with YADE's O.save, the MPM with its EigenMPM state, and the records of both) every N iterations
+into DIR/checkpoints (eigenmpm.Checkpoint, doc/restart.md); --resume DIR/checkpoints continues
+from the newest of them (give the same parameters; the calibration is not run again, the
+checkpoint holds its result) and writes the outputs as usual (wall_time_s, cpu_time_s and the
+engine times then count the resumed part only). The MPM continues bitwise; the DEM to round-off
+(YADE's collider rebuilds its lists after a load, so contacts are summed in another order).
+Both need model=jcfpm: YADE does not save the damage and shear strain of CPM bonds.
 
 params: h_mm, radius_mm, layers, model ('cpm' or 'jcfpm'), calibrate, velocity_m_s, rampTime_ms,
 endDisplacement_mm, dtFraction, demDamping, alpha, kappaOverH, loadWidth_mm, E, nu, rho, Gc, ft.
@@ -30,6 +40,7 @@ bonds, eroded points, mpm_/dem_wall_s, particles, steps, wall_time_s, particle_s
 calibration), DIR/load_displacement.csv/.png and DIR/crack_patterns.png.
 --quick: h = 20 mm, r = 10 mm.
 """
+import json
 import os
 import sys
 import time
@@ -40,13 +51,16 @@ import numpy as np
 
 import eigenmpm as em
 from eigenmpm import dem
-from eigenmpm.cli import finish, scriptArgs
+from eigenmpm.cli import checkpointArgs, finish, runSteps, scriptArgs
+from eigenmpm.ramp import rampTimeTo
 
 DEFAULTS = dict(h_mm=10.0, radius_mm=5.0, layers=3, model="cpm", calibrate=1, velocity_m_s=0.02,
                 rampTime_ms=2.0, endDisplacement_mm=0.5, dtFraction=0.8, demDamping=0.0, alpha=1.5,
                 kappaOverH=1.1, loadWidth_mm=0.0, E=25.85e9, nu=0.18, rho=2500.0, Gc=89.0, ft=2.7e6)
 QUICK = dict(h_mm=20.0, radius_mm=10.0)
 A, THICKNESS = 0.25, 0.1
+CPM_NOT_SAVED = ("YADE's save does not keep the state of CPM bonds (CpmPhys.kappaD, omega, epsT: read-only "
+                 "and not saved), so a resumed CPM run would restart every bond undamaged and unsheared")
 
 
 def experiment():
@@ -81,16 +95,55 @@ def build(o):
     return pair
 
 
+def resumed(directory):
+    """The DemMpmPair of the newest checkpoint in `directory`, its scene loaded (doc/restart.md): the
+    owner of the `record` runner, restored with both models' records. The checkpoint keeps copies
+    of the DEM specimen's YADE engines and functors with it; they are pointed back at the loaded
+    scene's (JCFpm's crack energies are read from its law)."""
+    em.checkpoint.resume(directory)
+    (pair,) = [e.function.__self__ for e in O.engines if e.label == "record"]
+    d, engines = pair.dem, {e.label: e for e in O.engines}
+    d.engineList = [engines[f"{d.tag}_{n}"] for n in ("forces", "collider", "interactions", "newton")]
+    d.bo1 = engines[f"{d.tag}_collider"].boundDispatcher.functors[0]
+    loop = engines[f"{d.tag}_interactions"]
+    d.ig2, d.law = loop.geomDispatcher.functors[0], loop.lawDispatcher.functors[0]
+    O.timingEnabled = True  # the engine times of the summary
+    return pair
+
+
 def main(argv):
+    argv, resume, every = checkpointArgs("dem_lshaped_panel", argv)
     o, out, quick = scriptArgs("dem_lshaped_panel", DEFAULTS, QUICK, argv)
+    if (resume or every) and o["model"] != "jcfpm":
+        raise SystemExit(f"dem_lshaped_panel: --checkpoint-every and --resume need model=jcfpm, not "
+                         f"{o['model']!r}: {CPM_NOT_SAVED}")
     os.makedirs(out, exist_ok=True)
     cpu0 = time.process_time()
-    pair = build(o)
+    displacement = o["endDisplacement_mm"] * 1e-3
+    if resume:  # the scene, both models and their records as checkpointed
+        pair = resumed(resume)
+    else:
+        pair = build(o)
+        pair.setTimeStep(o["dtFraction"])
+    # dem.runToDisplacement's run, with a checkpoint engine first when asked for
+    steps = int(round(rampTimeTo(displacement, o["velocity_m_s"], o["rampTime_ms"] * 1e-3) / O.dt))
+    if not resume:
+        O.engines = pair.engines() + [em.callEvery(pair.record, iterPeriod=max(1, steps // 1000), label="record"),
+                                      em.Progress(endIter=steps, realPeriod=30)]
+        if every:
+            O.engines = [em.Checkpoint(directory=os.path.join(out, "checkpoints"), iterPeriod=every)] + list(O.engines)
+    print(f"MPM {pair.mpm.solver.numPoints} points, DEM {len(pair.dem.ids)} spheres ({pair.layers} layers), "
+          f"dt {O.dt:.3g} s, {steps} steps from iteration {O.iter}", flush=True)
     title = (f"L-shaped panel: MPM h = {o['h_mm']:g} mm, DEM {o['model'].upper()} "
              f"r = {o['radius_mm']:g} mm x {pair.layers} layers")
-    summary, end = dem.runToDisplacement(pair, out, "load", o["endDisplacement_mm"] * 1e-3, o["velocity_m_s"],
-                                         o["rampTime_ms"] * 1e-3, o["dtFraction"], title=title, sign=1.0,
-                                         band=experiment(), extra=dict(parameters=o, quick=quick), cpu0=cpu0)
+    start = time.time()
+    end = runSteps(steps - O.iter)  # Ctrl-C, SIGTERM or a solver error: outputs up to the stop, then finish()
+    summary = dem.report(pair, out, "load", title=title, wall=time.time() - start, sign=1.0, band=experiment(),
+                         extra=dict(parameters=o, quick=quick, **end.summary(), imposed_displacement_m=displacement),
+                         cpu=time.process_time() - cpu0)
+    print(json.dumps({k: v for k, v in summary.items() if k not in ("parameters", "calibration", "engine_wall_s")},
+                     indent=2, default=float))
+    print("outputs in", out)
     finish(end, out)
     return summary
 

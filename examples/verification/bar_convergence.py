@@ -6,8 +6,17 @@ error and the observed order between successive resolutions), DIR/convergence.js
 DIR/convergence.png (error against h, log-log).
 
     yade -n -x examples/verification/bar_convergence.py [--quick] [--out DIR] [cells=10,20,40,80,160]
+        [--checkpoint-every N] [--resume DIR/checkpoints]
 
 --quick: cells=10,20,40 (seconds; the observed order is already about 2 for uGIMP).
+
+--checkpoint-every N: each run of the sweep saves its scene every N iterations, and once more at
+its end, into its own folder DIR/checkpoints/<shape>-<cells> (eigenmpm.Checkpoint, doc/restart.md).
+--resume DIR/checkpoints continues an interrupted sweep (give the same cells): a run whose folder
+holds a checkpoint continues from the newest one (a finished run from that of its end: nothing
+runs, its results are read from it), the others run from the start, checkpointed into the same
+folders at the same period (that of the resumed runs' Checkpoint, or N if given). The table is
+the one of the uninterrupted sweep; only the wall times, which count the resumed part, differ.
 """
 import json
 import math
@@ -17,17 +26,35 @@ import sys
 # Under `yade -x` __file__ names yade itself; sys.argv[0] is this script.
 sys.path.insert(0, os.path.dirname(os.path.abspath(sys.argv[0])))
 import vibrating_bar  # noqa: E402
-from eigenmpm.cli import finish  # noqa: E402
+from yade import O  # noqa: E402
+
+import eigenmpm as em  # noqa: E402
+from eigenmpm.cli import checkpointArgs, finish  # noqa: E402
 
 
-def study(cells=(10, 20, 40, 80, 160), shapes=("uGIMP", "linear")):
+def study(cells=(10, 20, 40, 80, 160), shapes=("uGIMP", "linear"), checkpoints=None, every=0, resume=False):
     """The rows of the table, and how the last run ended: a run stopped early (Ctrl-C, a solver
-    error) ends the study with the rows completed before it."""
+    error) ends the study with the rows completed before it. With the folder `checkpoints`, each
+    run is checkpointed into checkpoints/<shape>-<cells> every `every` iterations and at its end;
+    with resume, a run whose folder holds a checkpoint continues from its newest one, and the
+    others are checkpointed at the period of the resumed ones (unless `every` is given)."""
     rows = []
     for shape in shapes:
         prev = None
         for c in cells:
-            s, _, end = vibrating_bar.run(cells=c, shape=shape)
+            kw = {}
+            if checkpoints:
+                folder = os.path.join(checkpoints, f"{shape}-{c}")
+                if resume and em.checkpoint.latest(folder):
+                    kw = dict(resume=folder, saveEnd=True)
+                elif every:
+                    kw = dict(checkpoints=folder, checkpointEvery=every, saveEnd=True)
+                else:
+                    raise SystemExit(f"bar_convergence: {checkpoints} holds no checkpoint of the first run; give "
+                                     "--checkpoint-every N")
+            s, _, end = vibrating_bar.run(cells=c, shape=shape, **kw)
+            if checkpoints and not every:  # the period of the sweep, for the runs it starts anew
+                (every,) = [e.period for e in O.engines if isinstance(e, em.Checkpoint)]
             if end.early:
                 return rows, end
             order = math.log(prev["rel_error"] / s["rel_error"]) / math.log(c / prev["cells_along_bar"]) \
@@ -42,6 +69,7 @@ CELLS, QUICK_CELLS = (10, 20, 40, 80, 160), (10, 20, 40)
 
 
 def main(argv):
+    argv, resume, every = checkpointArgs("bar_convergence", argv)
     out, cells = "out/bar_convergence", CELLS
     it = iter(argv)
     for a in it:
@@ -54,7 +82,8 @@ def main(argv):
         else:
             raise SystemExit(f"bar_convergence: unknown argument {a}")
     os.makedirs(out, exist_ok=True)
-    rows, end = study(cells)
+    checkpoints = resume or (os.path.join(out, "checkpoints") if every else None)
+    rows, end = study(cells, checkpoints=checkpoints, every=every, resume=bool(resume))
     lines = ["| shape | cells along L | h (m) | points | steps | rel. error of omega1 | observed order |",
              "|---|---|---|---|---|---|---|"]
     for r in rows:

@@ -11,6 +11,7 @@ while the intact bar stretches and carries sigma_xx = E/(1 - nu^2) 2 v (t - t0/2
 Run::
 
     yade -n -x examples/verification/precracked_bar.py [--quick] [--out DIR] [name=value ...]
+        [--checkpoint-every N] [--resume DIR/checkpoints]
     yade-batch table.txt examples/verification/precracked_bar.py   # a column per parameter
 
 with names cells (along the bar), ppc, transits (duration in wave transits L/c), rampTransits,
@@ -27,6 +28,15 @@ dtFraction, velocity, plot. --quick: 20 cells. Writes DIR/summary.json:
 
 and DIR/precracked_bar.png: both bars at the end (cracked above, intact below), the points at
 their positions coloured by sigma_xx, the crack drawn in. Default DIR: out/precracked_bar.
+
+--checkpoint-every N: each bar's run saves its scene every N iterations, and once more at its end,
+into its own folder DIR/checkpoints/cracked and DIR/checkpoints/intact (eigenmpm.Checkpoint,
+doc/restart.md). --resume DIR/checkpoints continues the pair of runs (give the same parameters): a
+bar whose folder holds a checkpoint continues from the newest one (a finished bar from that of
+its end: nothing runs, its measurements are made on it), the other runs from the start,
+checkpointed into its folder at the same period (that of the resumed bar's Checkpoint, or N if
+given). The outputs are those of the uninterrupted runs; only the wall times, which count the
+resumed part, differ.
 """
 import json
 import math
@@ -38,53 +48,81 @@ import numpy as np
 from yade import O, pack
 
 import eigenmpm as em
-from eigenmpm.cli import finish, runSteps, scriptArgs
+from eigenmpm.cli import checkpointArgs, finish, runSteps, scriptArgs
 from eigenmpm.ramp import rampDisplacement
 
 DEFAULTS = dict(cells=40, ppc=2, transits=6.0, rampTransits=2.0, dtFraction=0.3, velocity=1.0, plot=True)
 QUICK = dict(cells=20)
 
 
+class Reactions:
+    """Records (time, x-reaction of the right end, minus that of the left end) after each step (a
+    callEvery) and the number of twin nodes of the last step, and keeps the positions at the start.
+    A class at the top level, not a local function, so that a checkpoint saves it with its record
+    and a resumed run continues it (a bar read back from the checkpoint of its end runs no step, so
+    its solver has counted no twins since the load)."""
+
+    def __init__(self, mpm, left, right):
+        self.mpm, self.left, self.right = mpm, left, right
+        self.x0 = mpm.solver.positions().copy()
+        self.rows = []
+        self.twins = 0
+
+    def __call__(self):
+        self.rows.append((self.mpm.solver.time, self.right.reaction[0], -self.left.reaction[0]))
+        self.twins = int(self.mpm.solver.numTwins)
+
+
 def pull(cracked, cells=40, ppc=2, transits=6.0, rampTransits=2.0, dtFraction=0.3, velocity=1.0, L=0.2, H=0.05,
-         E=1e8, nu=0.2, rho=1000.0):
-    """Runs one bar; returns its measurements, its final state and how its run ended ("end")."""
+         E=1e8, nu=0.2, rho=1000.0, checkpoints=None, checkpointEvery=0, resume=None):
+    """Runs one bar; returns its measurements, its final state and how its run ended ("end").
+    With checkpointEvery > 0 a Checkpoint engine saves the scene every checkpointEvery iterations,
+    and at the end of a complete run, into the folder `checkpoints`; `resume`, a folder of
+    checkpoints, continues the run from the newest of them instead of building it."""
     O.reset()
     h = L / cells
-    mpm = em.MpmEngine(dim=2, h=h, ppc=ppc, label="bar")
-    mat = em.ElasticMaterial(E=E, nu=nu, rho=rho)
-    ids = mpm.fill(pack.inAlignedBox((0, 0, 0), (L, H, 0)), mat)
     # The crack line lies between two columns of points, off the nodes (any position works; this
     # one splits the bar into equal halves).
     xc = 0.5 * L + 0.13 * h
     crack = [(xc, -h, 0), (xc, H + h, 0)]
-    if cracked:
-        mpm.crack(crack)
     c = math.sqrt(E * (1 - nu) / ((1 + nu) * (1 - 2 * nu) * rho))  # plane-strain P-wave speed
     t0, duration = rampTransits * L / c, transits * L / c
-    layer = 0.5 * h / ppc + 1e-3 * h  # the first layer of points at each end
-    left = mpm.velocityBC(points=pack.inAlignedBox((-1, -1, -1), (layer, 1, 1)), components="x",
-                          velocity=(-velocity, 0, 0), rampTime=t0, label="left")
-    right = mpm.velocityBC(points=pack.inAlignedBox((L - layer, -1, -1), (1, 1, 1)), components="x",
-                           velocity=(velocity, 0, 0), rampTime=t0, label="right")
-    x0 = mpm.solver.positions().copy()
+    if resume:  # the scene and its record as checkpointed (doc/restart.md)
+        em.checkpoint.resume(resume)
+        mpm = em.findEngine("bar")
+        (record,) = [e.function for e in O.engines if isinstance(getattr(e, "function", None), Reactions)]
+    else:
+        mpm = em.MpmEngine(dim=2, h=h, ppc=ppc, label="bar")
+        mat = em.ElasticMaterial(E=E, nu=nu, rho=rho)
+        mpm.fill(pack.inAlignedBox((0, 0, 0), (L, H, 0)), mat)
+        if cracked:
+            mpm.crack(crack)
+        layer = 0.5 * h / ppc + 1e-3 * h  # the first layer of points at each end
+        left = mpm.velocityBC(points=pack.inAlignedBox((-1, -1, -1), (layer, 1, 1)), components="x",
+                              velocity=(-velocity, 0, 0), rampTime=t0, label="left")
+        right = mpm.velocityBC(points=pack.inAlignedBox((L - layer, -1, -1), (1, 1, 1)), components="x",
+                               velocity=(velocity, 0, 0), rampTime=t0, label="right")
+        record = Reactions(mpm, left, right)
+        O.engines = [mpm, em.callEvery(record)]
+        if checkpointEvery:
+            O.engines = [em.Checkpoint(directory=checkpoints, iterPeriod=checkpointEvery)] + list(O.engines)
+        O.dt = dtFraction * mpm.criticalTimeStep()
+    x0 = record.x0
     isLeft = x0[:, 0] < xc
     near = np.abs(x0[:, 0] - xc) < 1.5 * h
-    reactions = []
-
-    def record():
-        reactions.append((mpm.solver.time, right.reaction[0], -left.reaction[0]))
-
-    O.engines = [mpm, em.callEvery(record)]
-    O.dt = dtFraction * mpm.criticalTimeStep()
     steps = int(math.ceil(duration / O.dt))
+    todo = steps - O.iter  # 0 after a resume from the checkpoint of the end
     start = time.time()
-    end = runSteps(steps)
+    end = runSteps(todo)
     wall = time.time() - start
+    checkpoint = [e for e in O.engines if isinstance(e, em.Checkpoint)]
+    if checkpoint and todo > 0 and not end.early:  # the end, which a resumed pair reads back
+        checkpoint[0].save()
     steps = mpm.solver.steps
     x = mpm.solver.positions()
     sigma = mpm.solver.stress()
     t = mpm.solver.time
-    r = np.array(reactions)
+    r = np.array(record.rows)
     second = r[:, 0] >= 0.5 * t
     gap = lambda pos: float(pos[~isLeft, 0].min() - pos[isLeft, 0].max())  # noqa: E731
     pulled = 2 * rampDisplacement(t, velocity, t0)  # both ends moved apart under the ramp (paper Eq 34)
@@ -95,21 +133,43 @@ def pull(cracked, cells=40, ppc=2, transits=6.0, rampTransits=2.0, dtFraction=0.
         "reaction_left_N": float(np.mean(r[second, 2])),
         "stress_at_crack_Pa": float(np.mean(sigma[near, 0, 0])),
         "stress_expected_Pa": E / (1 - nu * nu) * pulled / L,
-        "particles": int(len(ids)), "steps": steps, "wall_time_s": wall, "time_s": t,
-        "twins": int(mpm.solver.numTwins), "h_m": h, "ramp_time_s": t0, "wave_speed_m_s": c,
-        "dt_s": O.dt, "crack": crack, "end": end,
+        "particles": int(mpm.solver.numPoints), "steps": steps, "wall_time_s": wall, "time_s": t,
+        "twins": record.twins, "h_m": h, "ramp_time_s": t0, "wave_speed_m_s": c,
+        "dt_s": O.dt, "crack": crack, "end": end, "checkpointEvery": checkpoint[0].period if checkpoint else 0,
         "state": (x, sigma[:, 0, 0].copy(), mpm.crackVertices(0) if cracked else None),
     }
 
 
-def run(cells=40, ppc=2, transits=6.0, rampTransits=2.0, dtFraction=0.3, velocity=1.0, **_):
+def run(cells=40, ppc=2, transits=6.0, rampTransits=2.0, dtFraction=0.3, velocity=1.0, checkpoints=None,
+        checkpointEvery=0, resume=False, **_):
     """Pulls the cracked and the intact bar; returns the summary, the final states and how the
     runs ended (eigenmpm.cli.RunEnd). When the cracked bar's run stops early (Ctrl-C, a solver
-    error) the intact bar is not run and its values are None."""
+    error) the intact bar is not run and its values are None. With the folder `checkpoints`, each
+    bar is checkpointed into checkpoints/cracked and checkpoints/intact every checkpointEvery
+    iterations and at its end; with resume, a bar whose folder holds a checkpoint continues from
+    its newest one, and the other is checkpointed at the period of the resumed one (unless
+    checkpointEvery is given)."""
     kw = dict(cells=cells, ppc=ppc, transits=transits, rampTransits=rampTransits, dtFraction=dtFraction,
               velocity=velocity)
-    cut = pull(True, **kw)
-    whole = pull(False, **kw) if not cut["end"].early else None
+    every = checkpointEvery
+
+    def bar(cracked):
+        nonlocal every
+        if not checkpoints:
+            return pull(cracked, **kw)
+        folder = os.path.join(checkpoints, "cracked" if cracked else "intact")
+        if resume and em.checkpoint.latest(folder):
+            out = pull(cracked, **kw, resume=folder)
+        elif every:
+            out = pull(cracked, **kw, checkpoints=folder, checkpointEvery=every)
+        else:
+            raise SystemExit(f"precracked_bar: {checkpoints} holds no checkpoint of the cracked bar; give "
+                             "--checkpoint-every N")
+        every = every or out["checkpointEvery"]  # the period of the pair, for a bar started anew
+        return out
+
+    cut = bar(True)
+    whole = bar(False) if not cut["end"].early else None
     end = whole["end"] if whole else cut["end"]
     intact = (lambda key: whole[key]) if whole else (lambda key: None)  # noqa: E731
     bars = [cut] + ([whole] if whole else [])
@@ -170,9 +230,11 @@ def plot(out, states, summary):
 
 
 def main(argv):
+    argv, resume, every = checkpointArgs("precracked_bar", argv)
     opts, out, _ = scriptArgs("precracked_bar", DEFAULTS, QUICK, argv)
     os.makedirs(out, exist_ok=True)
-    summary, states, end = run(**opts)
+    checkpoints = resume or (os.path.join(out, "checkpoints") if every else None)
+    summary, states, end = run(**opts, checkpoints=checkpoints, checkpointEvery=every, resume=bool(resume))
     path = os.path.join(out, "summary.json")
     with open(path, "w") as f:
         json.dump(summary, f, indent=2)

@@ -9,10 +9,16 @@ The measured omega is 2 pi over the mean period between upward zero crossings of
 Run::
 
     yade -n -x examples/verification/vibrating_bar.py [--quick] [--out DIR] [cells=N] [shape=linear] [plot=0]
+        [--checkpoint-every N] [--resume DIR/checkpoints]
 
 writes DIR/summary.json (omega_numeric, omega_analytic, rel_error, particles, steps,
 wall_time_s, particle_steps_per_s, ...) and DIR/tip_displacement.png (tip displacement over
 time against the closed form). Default DIR: out/vibrating_bar.
+
+--checkpoint-every N saves the scene every N iterations into DIR/checkpoints (eigenmpm.Checkpoint,
+doc/restart.md); --resume DIR/checkpoints continues from the newest of them (give the same
+parameters) to the end state of the uninterrupted run, the modal record (ModalRecord) included,
+and writes the outputs as usual (wall_time_s then counts the resumed part only).
 """
 import json
 import math
@@ -24,49 +30,73 @@ import numpy as np
 from yade import O, pack
 
 import eigenmpm as em
-from eigenmpm.cli import finish, runSteps, scriptArgs
+from eigenmpm.cli import checkpointArgs, finish, runSteps, scriptArgs
 
 
 DEFAULTS = dict(cells=80, shape="uGIMP", ppc=2, periods=3.0, dtFraction=0.5, plot=True)
 QUICK = dict(cells=20)
 
 
+class ModalRecord:
+    """Records (time, modal amplitude q, mean tip displacement) after each step (a callEvery; it
+    runs after the solver in the same iteration, so it sees the state at solver.time). A class at
+    the top level, not a local function, so that a checkpoint saves it with its series and a
+    resumed run continues it."""
+
+    def __init__(self, mpm, L, h):
+        self.mpm = mpm
+        self.x0 = mpm.solver.positions()[:, 0]
+        self.phi = np.sin(0.5 * math.pi * self.x0 / L)
+        self.m = mpm.solver.mass()
+        self.tip = self.x0 > L - h
+        self.series = []
+
+    def __call__(self):
+        u = self.mpm.solver.positions()[:, 0] - self.x0
+        q = float(np.sum(self.m * u * self.phi) / np.sum(self.m * self.phi * self.phi))
+        self.series.append((self.mpm.solver.time, q, float(np.mean(u[self.tip]))))
+
+
 def run(cells=80, shape="uGIMP", ppc=2, periods=3.0, dtFraction=0.5, L=1.0, E=1e7, rho=1000.0, v0=1e-3,
-        **_):
+        checkpoints=None, checkpointEvery=0, resume=None, saveEnd=False, **_):
     """Runs the bar with `cells` cells along its length; returns the summary, the time series and
-    how the run ended (eigenmpm.cli.RunEnd: a stopped run has the series up to the stop)."""
+    how the run ended (eigenmpm.cli.RunEnd: a stopped run has the series up to the stop).
+    With checkpointEvery > 0 a Checkpoint engine saves the scene every checkpointEvery iterations
+    into the folder `checkpoints`, and with saveEnd also at the end of a complete run (what a sweep
+    reads back instead of running it again); `resume`, a folder of checkpoints, continues the run
+    from the newest of them instead of building it (give the same parameters)."""
     O.reset()
-    h = L / cells
-    height = 4 * h
-    mpm = em.MpmEngine(dim=2, h=h, ppc=ppc, shape=shape, label="bar")
-    mat = em.ElasticMaterial(E=E, nu=0.0, rho=rho)
-    ids = mpm.fill(pack.inAlignedBox((0, 0, 0), (L, height, 0)), mat)
-    x0 = mpm.solver.positions()
-    phi = np.sin(0.5 * math.pi * x0[:, 0] / L)
-    vel = np.zeros_like(x0)
-    vel[:, 0] = v0 * phi
-    mpm.solver.setVelocities(vel)
-    mpm.fix(region=pack.inAlignedBox((-L, -L, -1), (0.0, 2 * L, 1)), label="support")
-    m = mpm.solver.mass()
-    tip = x0[:, 0] > L - h
     omega = 0.5 * math.pi / L * math.sqrt(E / rho)
-    series = []
-
-    def record():
-        u = mpm.solver.positions()[:, 0] - x0[:, 0]
-        q = float(np.sum(m * u * phi) / np.sum(m * phi * phi))
-        series.append((mpm.solver.time, q, float(np.mean(u[tip]))))
-
-    # The recorder runs after the solver in the same iteration: it sees the state at solver.time.
-    O.engines = [mpm, em.callEvery(record)]
-    O.dt = dtFraction * mpm.criticalTimeStep()
+    if resume:  # the scene and its record as checkpointed (doc/restart.md)
+        em.checkpoint.resume(resume)
+        mpm = em.findEngine("bar")
+        (record,) = [e.function for e in O.engines if isinstance(getattr(e, "function", None), ModalRecord)]
+    else:
+        h = L / cells
+        height = 4 * h
+        mpm = em.MpmEngine(dim=2, h=h, ppc=ppc, shape=shape, label="bar")
+        mat = em.ElasticMaterial(E=E, nu=0.0, rho=rho)
+        mpm.fill(pack.inAlignedBox((0, 0, 0), (L, height, 0)), mat)
+        record = ModalRecord(mpm, L, h)
+        vel = np.zeros_like(mpm.solver.positions())
+        vel[:, 0] = v0 * record.phi
+        mpm.solver.setVelocities(vel)
+        mpm.fix(region=pack.inAlignedBox((-L, -L, -1), (0.0, 2 * L, 1)), label="support")
+        O.engines = [mpm, em.callEvery(record)]
+        if checkpointEvery:
+            O.engines = [em.Checkpoint(directory=checkpoints, iterPeriod=checkpointEvery)] + list(O.engines)
+        O.dt = dtFraction * mpm.criticalTimeStep()
+        record()
     steps = int(math.ceil(periods * 2 * math.pi / omega / O.dt))
-    record()
+    todo = steps - O.iter  # 0 after a resume from the checkpoint of the end
     start = time.time()
-    end = runSteps(steps)
+    end = runSteps(todo)
     wall = time.time() - start
+    if saveEnd and todo > 0 and not end.early:
+        (checkpoint,) = [e for e in O.engines if isinstance(e, em.Checkpoint)]
+        checkpoint.save()
     steps = mpm.solver.steps
-    t, q, utip = (np.array(c) for c in zip(*series))
+    t, q, utip = (np.array(c) for c in zip(*record.series))
     up = [t[i] - q[i] * (t[i + 1] - t[i]) / (q[i + 1] - q[i])
           for i in range(len(q) - 1) if q[i] < 0 <= q[i + 1]]
     down = [t[i] - q[i] * (t[i + 1] - t[i]) / (q[i + 1] - q[i])
@@ -75,15 +105,17 @@ def run(cells=80, shape="uGIMP", ppc=2, periods=3.0, dtFraction=0.5, L=1.0, E=1e
     # Zero crossings of a sine are half a period apart; q(0) = 0 is the first.
     halfPeriods = np.diff([0.0] + crossings)
     omegaNum = math.pi / float(np.mean(halfPeriods)) if crossings else None  # none in a run stopped early
+    n = mpm.solver.numPoints
+    h = mpm.h
     summary = {
         "omega_numeric": omegaNum, "omega_analytic": omega,
         "rel_error": abs(omegaNum - omega) / omega if omegaNum else None,
-        "particles": int(len(ids)), "steps": steps, "wall_time_s": wall,
-        "particle_steps_per_s": len(ids) * steps / wall if wall > 0 else float("nan"),
+        "particles": int(n), "steps": steps, "wall_time_s": wall,
+        "particle_steps_per_s": n * steps / wall if wall > 0 else float("nan"),
         "cells_along_bar": cells, "h_m": h, "shape": shape, "ppc": ppc, "dt_s": O.dt,
         "dt_fraction_of_critical": dtFraction, "periods": periods, **end.summary(),
     }
-    return summary, (t, q, utip, v0, omega, float(np.mean(phi[tip]))), end
+    return summary, (t, q, utip, v0, omega, float(np.mean(record.phi[record.tip]))), end
 
 
 def plot(out, series):
@@ -107,9 +139,11 @@ def plot(out, series):
 
 
 def main(argv):
+    argv, resume, every = checkpointArgs("vibrating_bar", argv)
     opts, out, _ = scriptArgs("vibrating_bar", DEFAULTS, QUICK, argv)
     os.makedirs(out, exist_ok=True)
-    summary, series, end = run(**opts)
+    summary, series, end = run(**opts, checkpoints=os.path.join(out, "checkpoints"), checkpointEvery=every,
+                               resume=resume)
     path = os.path.join(out, "summary.json")
     with open(path, "w") as f:
         json.dump(summary, f, indent=2)

@@ -188,9 +188,12 @@ def runSteps(steps, poll=0.05):
     back after it) make it call ``O.pause()``, which stops the loop at the end of the current
     step. A solver error (a point leaving the grid, a non-finite value) ends the run with its
     message. Either way the state stays as the last complete step left it, so the example can
-    write its summary and figures. Returns a :class:`RunEnd`."""
+    write its summary and figures. Returns a :class:`RunEnd`. With steps <= 0 (a run resumed
+    from a checkpoint of its end) nothing runs: YADE's ``O.run(0)`` would run without end."""
     from yade import O
     started = time.time()
+    if steps <= 0:
+        return RunEnd(None, None, started)
     if threading.current_thread() is not threading.main_thread():  # signals reach the main thread only
         message = _run(O, steps)
         if message is None:

@@ -310,3 +310,165 @@ def test_lshaped_panel_resumes_from_its_checkpoint_to_the_same_end_state(tmp_pat
                            ["checkpoint-000011400", "checkpoint-000017100"],
                            ["load_displacement.csv", "eroded.csv"])
     assert sa["steps"] == 17162 and sa["eroded_count"] > 0 and sa["initiation_load_kN"] is not None
+
+
+def _yade(script, args):
+    """Runs examples/<script> with args under yade (the built package on PYTHONPATH); returns the
+    completed process, which must have exited 0."""
+    env = dict(os.environ, PYTHONPATH=os.path.join(ROOT, "build", "python"))
+    r = subprocess.run(["yade", "-n", "-x", os.path.join(ROOT, "examples", script)] + list(args), env=env,
+                       capture_output=True, text=True, timeout=600, stdin=subprocess.DEVNULL)
+    assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-2000:]
+    return r
+
+
+def _sameSummaries(a, b, name="summary.json", times=("wall_time_s", "particle_steps_per_s")):
+    """The JSON files `name` in folders a and b hold the same values, but the wall times."""
+    import json
+    sa, sb = (json.loads((d / name).read_text()) for d in (a, b))
+    rows = (sa, sb) if isinstance(sa, list) else ([sa], [sb])
+    assert len(rows[0]) == len(rows[1])
+    for ra, rb in zip(*rows):
+        assert sorted(ra) == sorted(rb)
+        for k in ra:
+            if k not in times:
+                assert ra[k] == rb[k] or ra[k] != ra[k] and rb[k] != rb[k], k  # NaN == NaN here
+    return sa
+
+
+# Timings of a DEM/MPM comparison's summary: they count the resumed part only.
+DEM_TIMES = ("wall_time_s", "particle_steps_per_s", "cpu_time_s", "mpm_wall_s", "dem_wall_s", "engine_wall_s",
+             "mpm_particle_steps_per_s", "dem_particle_steps_per_s")
+
+
+def _resumeDem(tmp_path, script, params, every, checkpoints):
+    """Runs the DEM/MPM comparison examples/<script> --quick model=jcfpm with params and
+    --checkpoint-every `every`, then again with --resume from its checkpoints (the names
+    `checkpoints` expected). The MPM side continues bitwise: the same MPM columns of
+    load_displacement.csv and the same summary values. The DEM side continues to round-off only:
+    YADE's load restores the bodies and bonds bitwise, but its collider rebuilds its lists and the
+    contacts are then visited, and their forces summed, in another order (measured on the beam:
+    positions and velocities 3e-17 apart 20 steps after a load, 2e-10 after 100 while bonds break), so its
+    floating-point values are compared to 1e-6 and its counts exactly. Returns the summary."""
+    a, b = tmp_path / "a", tmp_path / "b"
+    args = ["--quick", "model=jcfpm", "calibrate=0"] + list(params)
+    _yade(script, args + ["--out", str(a), "--checkpoint-every", str(every)])
+    _yade(script, args + ["--out", str(b), "--resume", str(a / "checkpoints")])
+    assert sorted(os.listdir(a / "checkpoints")) == checkpoints
+    import json
+    sa, sb = (json.loads((d / "summary.json").read_text()) for d in (a, b))
+    assert sorted(sa) == sorted(sb)
+    for k in sa:
+        if k in DEM_TIMES:
+            continue
+        if k.startswith("dem_") and isinstance(sa[k], float):
+            assert sb[k] == pytest.approx(sa[k], rel=1e-6, abs=1e-300), k
+        else:
+            assert sa[k] == sb[k], k
+    ca, cb = (np.loadtxt(d / "load_displacement.csv", delimiter=",", skiprows=1) for d in (a, b))
+    assert ca.shape == cb.shape
+    assert np.array_equal(ca[:, :3], cb[:, :3])  # time, MPM displacement and load
+    assert np.allclose(cb[:, 3:], ca[:, 3:], rtol=1e-5, atol=1e-12)  # DEM displacement and load
+    return sa
+
+
+def test_dem_three_point_bending_resumes_from_its_checkpoint_to_the_same_end_state(tmp_path):
+    """dem_three_point_bending.py (JCFpm) to 0.1 mm (4199 steps) --checkpoint-every 2000, then
+    --resume from the newest checkpoint (iteration 4000, DEM bonds broken): the same records
+    of both models and the same summary (the DEM's to round-off, see _resumeDem); the broken bonds
+    and the JCFpm crack energy come from the loaded scene, not from the copies of the DEM's engines
+    that the checkpoint holds with the pair."""
+    s = _resumeDem(tmp_path, "dem_three_point_bending.py", ["endDisplacement_mm=0.1"], 2000,
+                   ["checkpoint-000002000", "checkpoint-000004000"])
+    assert s["steps"] == 4199 and s["dem_broken_bonds"] > 0 and s["dem_dissipated_energy_J"] > 0
+
+
+def test_dem_lshaped_panel_resumes_from_its_checkpoint_to_the_same_end_state(tmp_path):
+    """dem_lshaped_panel.py (JCFpm) to 0.15 mm (2904 steps) --checkpoint-every 1400, then --resume
+    from iteration 2800 (DEM bonds broken from about 0.1 mm): as for the beam. With CPM (the
+    default) both options are refused: YADE does not save the damage and shear strain of CPM
+    bonds, so a resumed CPM run would not continue the same run."""
+    s = _resumeDem(tmp_path, "dem_lshaped_panel.py", ["endDisplacement_mm=0.15"], 1400,
+                   ["checkpoint-000001400", "checkpoint-000002800"])
+    assert s["steps"] == 2904 and s["dem_broken_bonds"] > 0
+    env = dict(os.environ, PYTHONPATH=os.path.join(ROOT, "build", "python"))
+    r = subprocess.run(["yade", "-n", "-x", os.path.join(ROOT, "examples", "dem_lshaped_panel.py"), "--quick",
+                        "--out", str(tmp_path / "c"), "--checkpoint-every", "100"], env=env, capture_output=True,
+                       text=True, timeout=600, stdin=subprocess.DEVNULL)
+    assert r.returncode != 0 and "need model=jcfpm" in r.stdout + r.stderr
+    assert not (tmp_path / "c" / "checkpoints").exists()
+
+
+def test_vibrating_bar_resumes_from_its_checkpoint_to_the_same_end_state(tmp_path):
+    """vibrating_bar.py --quick (481 steps) --checkpoint-every 200, then --resume from iteration
+    400: the same summary, whose frequency comes from the modal record of the whole run (most of it
+    saved in the checkpoint)."""
+    sa, _ = _resumeExample(tmp_path, "verification/vibrating_bar.py", ["plot=0"], 200,
+                           ["checkpoint-000000200", "checkpoint-000000400"], [])
+    assert sa["steps"] == 481 and sa["rel_error"] < 0.01
+
+
+def test_lpanel_corner_resumes_in_the_ramp_or_in_the_load_record_to_the_same_end_state(tmp_path):
+    """lpanel_corner.py h_mm=10 (a ramp of 2042 steps, then 82 recording the load)
+    --checkpoint-every 1050: resumed from iteration 2100 (in the load record, which the checkpoint
+    holds) and, once that checkpoint is removed, from iteration 1050 (in the ramp; the record is
+    made after it): the same summary."""
+    a, b, c = tmp_path / "a", tmp_path / "b", tmp_path / "c"
+    script = "verification/lpanel_corner.py"
+    _yade(script, ["h_mm=10", "--out", str(a), "--checkpoint-every", "1050"])
+    assert sorted(os.listdir(a / "checkpoints")) == ["checkpoint-000001050", "checkpoint-000002100"]
+    _yade(script, ["h_mm=10", "--out", str(b), "--resume", str(a / "checkpoints")])
+    import shutil
+    shutil.rmtree(a / "checkpoints" / "checkpoint-000002100")
+    _yade(script, ["h_mm=10", "--out", str(c), "--resume", str(a / "checkpoints")])
+    s = _sameSummaries(a, b)
+    _sameSummaries(a, c)
+    assert s["steps"] == 2124 and s["load_kN"] > 0
+
+
+def test_precracked_bar_resumes_the_unfinished_bar_and_reads_the_finished_one_back(tmp_path):
+    """precracked_bar.py --quick (two bars of 401 steps) --checkpoint-every 150: each bar keeps
+    its checkpoints 300 and 401 (its end) in its own folder. With the intact bar's end removed (the
+    pair stopped in the intact bar after iteration 300), --resume continues the intact bar from 300
+    and reads the cracked one back from its end without running it: the same summary."""
+    a, b = tmp_path / "a", tmp_path / "b"
+    script = "verification/precracked_bar.py"
+    _yade(script, ["--quick", "plot=0", "--out", str(a), "--checkpoint-every", "150"])
+    for bar in ("cracked", "intact"):
+        assert sorted(os.listdir(a / "checkpoints" / bar)) == ["checkpoint-000000300", "checkpoint-000000401"]
+    import shutil
+    shutil.rmtree(a / "checkpoints" / "intact" / "checkpoint-000000401")
+    done = (a / "checkpoints" / "cracked" / "checkpoint-000000401").stat().st_mtime_ns
+    _yade(script, ["--quick", "plot=0", "--out", str(b), "--resume", str(a / "checkpoints")])
+    s = _sameSummaries(a, b)
+    assert s["steps"] == 401 and s["gap_m"] > 0 and s["reaction_intact_N"] is not None
+    assert sorted(os.listdir(a / "checkpoints" / "intact")) == ["checkpoint-000000300", "checkpoint-000000401"]
+    assert (a / "checkpoints" / "cracked" / "checkpoint-000000401").stat().st_mtime_ns == done
+
+
+def test_bar_convergence_resumes_an_interrupted_sweep_to_the_same_table(tmp_path):
+    """bar_convergence.py --quick (six runs, 241 to 961 steps) --checkpoint-every 300: each run
+    keeps its checkpoints, its end among them, in its own folder. With the sweep made to look
+    stopped in its fifth run (linear, 20 cells: its end removed, checkpoint 300 left) before the
+    sixth began (its folder removed), --resume reads the four finished runs back from their ends
+    without running them, continues the fifth from 300 and runs the sixth from the start,
+    checkpointed at the sweep's period (300, learnt from the resumed runs): the same table."""
+    a, b = tmp_path / "a", tmp_path / "b"
+    script = "verification/bar_convergence.py"
+    _yade(script, ["--quick", "--out", str(a), "--checkpoint-every", "300"])
+    ck = a / "checkpoints"
+    assert sorted(os.listdir(ck)) == ["linear-10", "linear-20", "linear-40", "uGIMP-10", "uGIMP-20", "uGIMP-40"]
+    assert sorted(os.listdir(ck / "linear-20")) == ["checkpoint-000000300", "checkpoint-000000481"]
+    import shutil
+    shutil.rmtree(ck / "linear-20" / "checkpoint-000000481")
+    shutil.rmtree(ck / "linear-40")
+    ends = {run: (ck / run / f"checkpoint-{steps:09d}").stat().st_mtime_ns
+            for run, steps in (("uGIMP-10", 241), ("uGIMP-20", 481), ("uGIMP-40", 961), ("linear-10", 241))}
+    _yade(script, ["--quick", "--out", str(b), "--resume", str(ck)])
+    assert (a / "convergence.md").read_bytes() == (b / "convergence.md").read_bytes()
+    rows = _sameSummaries(a, b, "convergence.json")
+    assert len(rows) == 6 and rows[-1]["steps"] == 961
+    assert sorted(os.listdir(ck / "linear-20")) == ["checkpoint-000000300", "checkpoint-000000481"]
+    assert sorted(os.listdir(ck / "linear-40")) == ["checkpoint-000000900", "checkpoint-000000961"]
+    assert {run: (ck / run / f"checkpoint-{steps:09d}").stat().st_mtime_ns
+            for run, steps in (("uGIMP-10", 241), ("uGIMP-20", 481), ("uGIMP-40", 961), ("linear-10", 241))} == ends
