@@ -20,8 +20,13 @@
 // --steps N times exactly N steps per run instead of --min-time (the checksums then compare
 // builds: an optimisation that keeps the arithmetic must keep them).
 // --quick is --sizes 2e4 --size3d 2e4 --min-time 0.3 --warmup 1.
-// Output (stdout): one progress line per run, then a table, then one JSON object per line
-// (prefix "JSON ") per run.
+// Output (stdout): one progress line per run, then a table, the peak resident set of the process
+// (VmHWM) and its ratio to the points of the largest scene, then one JSON object per line
+// (prefix "JSON ") per run, with resident_bytes_per_point: the resident set the scene added
+// (VmRSS after its timed steps minus before its build) over its points.
+// Memory per point: run one case, one size and one thread count per process, e.g.
+//   bench_block --cases gimp2 --sizes 1e6 --threads 1 --steps 5
+// (a later scene in one process reuses the pages an earlier one freed).
 #include <chrono>
 #include <cinttypes>
 #include <cmath>
@@ -57,6 +62,7 @@ struct Result {
     int threads = 0;
     long steps = 0;
     double wall = 0, cpu = 0, pps = 0, ratio = 0;
+    double bytesPerPoint = 0;  ///< resident set added by the scene (after its steps) per point
     std::uint64_t checksum = 0;
     bool checked = false, deterministic = true;
 };
@@ -198,12 +204,27 @@ double cpuSeconds()
     return t.tv_sec + 1e-9 * t.tv_nsec;
 }
 
+/// A field of /proc/self/status in bytes ("VmRSS:", "VmHWM:"), or 0 where there is none.
+double statusBytes(const char* field)
+{
+    std::FILE* f = std::fopen("/proc/self/status", "r");
+    if (!f) return 0;
+    char line[256];
+    double kb = 0;
+    const std::size_t n = std::strlen(field);
+    while (std::fgets(line, sizeof line, f))
+        if (std::strncmp(line, field, n) == 0) kb = std::atof(line + n);
+    std::fclose(f);
+    return 1024.0 * kb;
+}
+
 /// One run: fresh block, warm-up, then timed steps until both minTime and minSteps are reached.
 /// The checksum is taken after exactly `checkAt` timed steps (0: after the last one).
 template <int D, class K>
 Result runOnce(const std::string& name, const std::array<int, D>& n, int threads, const Options& o,
                long minSteps, long checkAt)
 {
+    const double rss0 = statusBytes("VmRSS:");
     auto solver = makeBlock<D, K>(n, o.amp);
     const double dt = 0.5 * solver.criticalTimeStep();
     for (int i = 0; i < o.warmup; ++i) solver.step(dt, threads);
@@ -227,6 +248,7 @@ Result runOnce(const std::string& name, const std::array<int, D>& n, int threads
     r.wall = wall;
     r.cpu = cpu;
     r.pps = static_cast<double>(r.points) * steps / wall;
+    r.bytesPerPoint = (statusBytes("VmRSS:") - rss0) / r.points;
     return r;
 }
 
@@ -295,12 +317,17 @@ int main(int argc, char** argv)
                     r.steps, r.wall, r.cpu, r.pps, r.ratio, r.checked ? (r.deterministic ? "bitwise" : "DIFFERS") : "-");
         allSame = allSame && r.deterministic;
     }
-    std::printf("\n");
+    std::printf("\npeak resident set of the process: %.1f MB; per point of the largest scene: %.0f B\n\n",
+                statusBytes("VmHWM:") / 1e6, [&] {
+                    long most = 1;
+                    for (const auto& r : results) most = std::max(most, r.points);
+                    return statusBytes("VmHWM:") / most;
+                }());
     for (const auto& r : results)
         std::printf("JSON {\"case\": \"%s\", \"points\": %ld, \"threads\": %d, \"steps\": %ld, \"wall_time_s\": %.4f, \"cpu_time_s\": %.4f, "
-                    "\"particle_steps_per_s\": %.6g, \"ratio_to_first_thread_count\": %.4f, "
+                    "\"particle_steps_per_s\": %.6g, \"ratio_to_first_thread_count\": %.4f, \"resident_bytes_per_point\": %.1f, "
                     "\"checksum\": \"%016" PRIx64 "\", \"bitwise_equal_to_first\": %s}\n",
-                    r.caseName.c_str(), r.points, r.threads, r.steps, r.wall, r.cpu, r.pps, r.ratio, r.checksum,
+                    r.caseName.c_str(), r.points, r.threads, r.steps, r.wall, r.cpu, r.pps, r.ratio, r.bytesPerPoint, r.checksum,
                     r.checked ? (r.deterministic ? "true" : "false") : "null");
     if (!allSame) {
         std::fprintf(stderr, "bench_block: results differ between thread counts (determinism broken)\n");
