@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "EigenErosion.hpp"
+#include "ErosionCalibration.hpp"
 #include "Errors.hpp"
 #include "Laws.hpp"
 #include "Solver.hpp"
@@ -390,6 +391,22 @@ BOOST_PYTHON_MODULE(_eigenmpm)
         for (const auto& n : lawNames()) l.append(n);
         return l;
     }, "Names of the registered constitutive laws (ElasticMaterial(split=...)), in index order.");
+    bp::def("initiationRatio",
+            +[](int dim, double E, double nu, bool planeStress, const std::string& split, const std::string& mode,
+                double offset) {
+                require(dim == 2 || dim == 3, "dim", dim, "2 or 3");
+                require(mode == "I" || mode == "II", "mode", mode, "'I' or 'II'");
+                require(std::isfinite(offset) && offset >= 0 && offset <= 1, "offset (fraction of kappa)", offset,
+                        "0 <= offset <= 1");
+                const auto m = ElasticMaterial::make(E, nu, 1.0, planeStress, dim, lawId(split));
+                const CrackMode cm = mode == "I" ? CrackMode::I : CrackMode::II;
+                return dim == 2 ? initiationRatio<2>(m, cm, offset) : initiationRatio<3>(m, cm, offset);
+            },
+            (bp::arg("dim"), bp::arg("E"), bp::arg("nu"), bp::arg("planeStress"), bp::arg("split"),
+             bp::arg("mode") = "I", bp::arg("offset") = 0.0),
+            "kappa <psi+> / G of Eq 23 on the singular field of a sharp straight crack (doc/fracture.md): "
+            "Eq 24 starts such a crack at G = Gc / (alpha ratio); alpha = 1/ratio is Griffith's. offset: "
+            "where the neighbourhood is centred ahead of the tip, as a fraction of kappa.");
     BindErosion<2>::expose("Erosion2");
     BindErosion<3>::expose("Erosion3");
     // One class per configuration (Configurations.hpp), named Solver<D><Kernel name>, and the

@@ -46,6 +46,27 @@ def kappaRange(h, dim):
     return 0.5 * f * h, f * h
 
 
+def griffithAlpha(mpm, label="EigenErosion"):
+    """alpha = 1 / initiationRatio (mode I, neighbourhood centred on the tip) for the materials of
+    MpmEngine `mpm`: Eq 24 then starts a sharp crack at G = Gc (doc/fracture.md, "Initiation at
+    Griffith's energy"). Refused when the engine has no material yet or materials whose values
+    differ (one alpha per erosion stage)."""
+    mats = [m for m, _ in mpm._materials.values()]
+    if not mats:
+        raise ValueError(f"EigenMPM: alpha = 'griffith' needs the material: MpmEngine {mpm.label!r} has no points "
+                         f"yet; add the points before EigenErosion {label!r} first acts")
+    values = {}
+    for m in mats:
+        r = _eigenmpm.initiationRatio(mpm.dim, m.E, m.nu, m.planeStress, m.split)
+        values[round(1.0 / r, 12)] = m
+    if len(values) > 1:
+        listed = ", ".join(f"{a:.6g} ({m!r})" for a, m in values.items())
+        raise ValueError(f"EigenMPM: alpha = 'griffith' is one value per erosion stage, but the materials of "
+                         f"MpmEngine {mpm.label!r} give {listed}; allowed: materials with the same nu, plane "
+                         f"condition and split, or a numeric alpha")
+    return next(iter(values))
+
+
 @declare
 class EigenErosion(PyRunner):
     """Crack growth by eigenerosion for an MpmEngine. After the stress update of each step, a
@@ -72,7 +93,10 @@ class EigenErosion(PyRunner):
               check=ENGINE.checker, fixed=True),
         Param("Gc", None, "J/m2", "critical energy release rate", kind="float", bounds="(0, inf)",
               required=True, fixed=True),
-        Param("alpha", 1.5, "", "normalising constant of Eq 23 (paper: 1 to 2)", bounds="(0, inf)", fixed=True),
+        Param("alpha", 1.5, "", "normalising constant of Eq 23 (paper: 1 to 2), or 'griffith': the "
+                                "constant that starts a sharp crack at G = Gc for the engine's material "
+                                "(1 / initiationRatio, doc/fracture.md)", bounds="(0, inf)",
+              keywords=("griffith",), fixed=True),
         Param("kappa", None, "m", "neighbourhood radius (give kappa or kappaOverH)", kind="float",
               bounds="(0, inf)", fixed=True),
         Param("kappaOverH", None, "", "neighbourhood radius as a multiple of the cell size h", kind="float",
@@ -104,6 +128,8 @@ class EigenErosion(PyRunner):
         while this engine is in O.engines, and detaches it otherwise). Returns the MpmEngine."""
         mpm = findEngine(mpm if mpm is not None else self.engine)
         self._prepare(mpm)
+        if self.core is None:  # alpha = 'griffith' before any material: refused with the reason
+            griffithAlpha(mpm, self.label)
         attached = mpm.solver.erosion
         if sameStage(attached, self.core):
             return mpm
@@ -153,8 +179,11 @@ class EigenErosion(PyRunner):
             warnings.warn(f"EigenErosion: kappa = {kappa:.4g} m is outside the range "
                           f"{low:.4g} to {high:.4g} m of Appendix A (Eq A3) for h = {mpm.h:.4g} m",
                           stacklevel=3)
+        if isinstance(self.alpha, str) and not mpm._materials:
+            return  # 'griffith' needs the material: made when the engine first acts (attach)
+        alpha = griffithAlpha(mpm, self.label) if isinstance(self.alpha, str) else float(self.alpha)
         cls = _eigenmpm.Erosion2 if mpm.dim == 2 else _eigenmpm.Erosion3
-        self.core = cls(Gc=self.Gc, alpha=self.alpha, kappa=kappa)
+        self.core = cls(Gc=self.Gc, alpha=alpha, kappa=kappa)
         self._mpm = mpm
 
     def _action(self):

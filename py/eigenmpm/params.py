@@ -42,7 +42,7 @@ class Param:
     """One user parameter.
 
     Param(name, default, unit, doc, kind=None, bounds=None, choices=None, required=False,
-          function=False, accepts=None, check=None, fixed=False)
+          function=False, accepts=None, check=None, fixed=False, keywords=None)
 
     name      the keyword the user writes
     default   the value when the keyword is not given; None means "automatic" (the doc says
@@ -68,6 +68,8 @@ class Param:
     check     function(value) -> bool, for `object` and for rules the kind cannot express
     fixed     the object is built from the value (a solver, a law's constants): assigning it
               after construction raises AttributeError instead of being silently ignored
+    keywords  strings a number may be replaced by (matched case-insensitively -> the declared
+              spelling), e.g. alpha = 'griffith': a value computed by the object itself
 
     A parameter named ``label`` is a YADE label, a name the user looks the object up by: when
     its default is taken by a live object, the default becomes the first free one of label1,
@@ -75,10 +77,11 @@ class Param:
     """
 
     def __init__(self, name, default, unit, doc, kind=None, bounds=None, choices=None, required=False,
-                 function=False, accepts=None, check=None, fixed=False):
+                 function=False, accepts=None, check=None, fixed=False, keywords=None):
         self._declared = dict(name=name, default=default, unit=unit, doc=doc, kind=kind, bounds=bounds,
                               choices=choices, required=required, function=function, accepts=accepts,
-                              check=check, fixed=fixed)
+                              check=check, fixed=fixed, keywords=keywords)
+        self.keywords = tuple(keywords) if keywords else ()
         self.name, self.default, self.unit, self.doc = name, default, unit, doc
         self.fixed, self.unique = fixed, name == "label"
         self.kind = kind or self._inferKind(default)
@@ -149,8 +152,10 @@ class Param:
                 "points": "list of vectors"}[self.kind]
 
     def allowed(self):
-        """rangeText plus the alternatives None (automatic) and a function."""
+        """rangeText plus the alternatives: keywords, None (automatic) and a function."""
         text = self.rangeText()
+        for k in self.keywords:
+            text += f", or {k!r}"
         if self.function:
             text += ", or a function of time returning one"
         if self.default is None and not self.required:
@@ -172,6 +177,11 @@ class Param:
             self._refuse(value, owner, TypeError)
         if self.function and callable(value):
             return value
+        if self.keywords and isinstance(value, str):
+            for k in self.keywords:
+                if value.lower() == k.lower():
+                    return k
+            self._refuse(value, owner, TypeError)  # another string where a number is meant
         v = getattr(self, "_" + self.kind)(value, owner)
         if self.choices is not None:
             v = self._choose(v, value, owner)

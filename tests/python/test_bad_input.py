@@ -200,6 +200,8 @@ CASES = [
     ("erosion Gc missing", lambda: em.EigenErosion(kappa=0.01), T, "Gc is required (EigenErosion)"),
     ("erosion alpha=0", lambda: erosion(alpha=0.0), V, "alpha = 0.0 is invalid; allowed: alpha > 0"),
     ("erosion alpha=inf", lambda: erosion(alpha=math.inf), V, "alpha = inf is invalid"),
+    ("erosion alpha='grifith'", lambda: erosion(alpha="grifith"), T,
+     "alpha = 'grifith' is invalid; allowed: alpha > 0, or 'griffith'"),
     ("erosion kappa<0", lambda: erosion(kappaOverH=None, kappa=-0.01), V,
      "kappa = -0.01 is invalid; allowed: kappa > 0"),
     ("erosion kappa and kappaOverH", lambda: erosion(kappa=0.01), T, "give exactly one of kappa (m) or kappaOverH"),

@@ -258,3 +258,36 @@ def test_summary_and_tip_speed_figure_share_one_window():
     assert er.tipSpeedWindow() == pytest.approx(5e-7) and s["tip_speed_window_us"] == pytest.approx(0.5)
     assert s["max_tip_speed_m_s"] == float(np.max(v))
     assert np.max(er.tipSpeed(window=1e-6)[1]) != s["max_tip_speed_m_s"]  # another window differs
+
+
+def test_alpha_griffith_is_one_over_the_initiation_ratio_of_the_material():
+    """EigenErosion(alpha='griffith'): 1 / initiationRatio for the engine's material (mode I,
+    neighbourhood on the tip; pkg/ErosionCalibration.hpp), fixed when the stage is made; the
+    same stage with a number keeps the number."""
+    for planeStress, split in ((False, "spectral"), (True, "spectral"), (False, "volumetric")):
+        mpm = em.MpmEngine(h=H, domain=((-0.05, -0.05, 0), (0.25, 0.1, 0)))
+        mpm.fill(pack.inAlignedBox((0, 0, 0), (0.2, 0.05, 0)),
+                 em.ElasticMaterial(E=32e9, nu=0.2, rho=2450, planeStress=planeStress, split=split))
+        er = em.EigenErosion(engine=mpm, Gc=3.0, alpha="Griffith", kappaOverH=1.1)
+        r = em._eigenmpm.initiationRatio(2, 32e9, 0.2, planeStress, split)
+        assert er.core.alpha == pytest.approx(1.0 / r, rel=1e-12)
+        assert 5.0 < er.core.alpha < 6.5  # glass-like nu = 0.2: ratio 0.16-0.18
+    # Plane strain, spectral, nu = 0.2: 0.168, i.e. alpha = 2 starts cracks at 1.72 x Griffith's stress.
+    r = em._eigenmpm.initiationRatio(2, 32e9, 0.2, False, "spectral")
+    assert r == pytest.approx(0.168, abs=0.002)
+    assert em._eigenmpm.initiationRatio(3, 32e9, 0.2, False, "spectral") > r  # a ball around a front
+
+
+def test_alpha_griffith_waits_for_the_material_and_refuses_mixed_materials():
+    mpm = em.MpmEngine(h=H, domain=((-0.05, -0.05, 0), (0.25, 0.1, 0)))
+    er = em.EigenErosion(engine=mpm, Gc=3.0, alpha="griffith", kappaOverH=1.1)
+    assert er.core is None  # no material yet: made when the engine first acts
+    with pytest.raises(ValueError, match="needs the material"):
+        er.attach(mpm)
+    mpm.fill(pack.inAlignedBox((0, 0, 0), (0.1, 0.05, 0)), em.ElasticMaterial(E=32e9, nu=0.2, rho=2450))
+    mpm.fill(pack.inAlignedBox((0.1, 0, 0), (0.2, 0.05, 0)), em.ElasticMaterial(E=32e9, nu=0.3, rho=2450))
+    with pytest.raises(ValueError, match="one value per erosion stage"):
+        er.attach(mpm)
+    for bad in ("grifith", -1.0, float("nan"), True, None, "1.5"):
+        with pytest.raises((TypeError, ValueError), match="alpha"):
+            em.EigenErosion(engine=mpm, Gc=3.0, alpha=bad, kappaOverH=1.1)
