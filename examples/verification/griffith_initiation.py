@@ -1,0 +1,107 @@
+"""Initiation of a sharp centre crack under slowly ramped remote tension, against Griffith.
+
+A square glass plate W x W (plane strain, E = 32 GPa, nu = 0.2, rho = 2450 kg/m3, Gc = 3 J/m2)
+holds a phantom-node centre crack of length 2a = 2 aOverW W along x. A traction in y on the
+points within h of the top and bottom edges rises linearly from 0 to ratioMax sigma_G over
+rampTransits wave transits W/c, slowly enough for the plate to follow quasi-statically. The run
+stops at the first erosion (eigenerosion, kappa = kappaOverH h) and reports the traction then,
+over Griffith's stress with Feddersen's finite-width correction,
+
+    sigma_G = sqrt(E' Gc / (pi a)) / sqrt(sec(pi a / W)),   E' = E / (1 - nu^2).
+
+With the paper's alpha = 2 the ratio is about 1 / sqrt(2 r) = 1.72 (r = 0.168, the initiation
+ratio of doc/fracture.md); with alpha = 'griffith' (alpha = 1 / r) it should be 1 at fine
+resolution.
+
+Run::
+
+    yade -n -x examples/verification/griffith_initiation.py [--quick] [--out DIR] [name=value ...]
+
+with names h_mm (cell size), W_mm, aOverW, alpha (a number or griffith), kappaOverH,
+rampTransits, ratioMax, dtFraction, ppc. --quick: h = 2 mm (a / h = 2), a coarse check that the run
+starts a crack near sigma_G. Writes DIR/summary.json: initiation_ratio (traction at the first
+erosion / sigma_G), initiation_stress_Pa, griffith_stress_Pa, initiation_time_s, first_eroded
+(position, m), alpha_used, eroded_at_stop, a_over_h, particles, steps, wall_time_s, ...
+Default DIR: out/griffith_initiation.
+"""
+import json
+import math
+import os
+import sys
+import time
+
+import numpy as np
+from yade import O, pack
+
+import eigenmpm as em
+from eigenmpm.cli import finish, runSteps, scriptArgs
+
+DEFAULTS = dict(h_mm=0.5, W_mm=40.0, aOverW=0.1, alpha="griffith", kappaOverH=1.1, rampTransits=60.0,
+                ratioMax=1.5, dtFraction=0.5, ppc=2, E=32e9, nu=0.2, rho=2450.0, Gc=3.0)
+QUICK = dict(h_mm=2.0)
+
+
+def griffithStress(E, nu, Gc, a, W):
+    """Griffith's remote stress for a centre crack 2a in a plate of width W (plane strain), with
+    Feddersen's finite-width correction."""
+    return math.sqrt(E / (1 - nu * nu) * Gc / (math.pi * a)) / math.sqrt(1.0 / math.cos(math.pi * a / W))
+
+
+def run(o):
+    O.reset()
+    h, W = o["h_mm"] * 1e-3, o["W_mm"] * 1e-3
+    a = o["aOverW"] * W
+    alpha = o["alpha"] if o["alpha"] == "griffith" else float(o["alpha"])
+    mpm = em.MpmEngine(dim=2, h=h, ppc=int(o["ppc"]), label="plate")
+    mat = em.ElasticMaterial(E=o["E"], nu=o["nu"], rho=o["rho"])
+    mpm.fill(pack.inAlignedBox((0, 0, 0), (W, W, 0)), mat)
+    y = 0.5 * W + 0.13 * h  # off the point rows and node lines
+    mpm.crack([(0.5 * W - a, y, 0), (0.5 * W + a, y, 0)])
+    sG = griffithStress(o["E"], o["nu"], o["Gc"], a, W)
+    c = math.sqrt(o["E"] * (1 - o["nu"]) / ((1 + o["nu"]) * (1 - 2 * o["nu"]) * o["rho"]))
+    ramp = o["rampTransits"] * W / c
+    t = o["ratioMax"] * sG
+    mpm.traction(points=pack.inAlignedBox((-1, W - h, -1), (1, 1, 1)), traction=(0, t, 0), rampTime=ramp)
+    mpm.traction(points=pack.inAlignedBox((-1, -1, -1), (1, h, 1)), traction=(0, -t, 0), rampTime=ramp)
+    er = em.EigenErosion(engine=mpm, Gc=o["Gc"], alpha=alpha, kappaOverH=o["kappaOverH"], iterPeriod=1)
+    O.engines = [mpm, er]
+    O.dt = o["dtFraction"] * mpm.criticalTimeStep()
+    steps = int(math.ceil(ramp / O.dt))
+    start = time.time()
+    end, chunk = None, 20
+    while O.iter < steps:
+        end = runSteps(min(chunk, steps - O.iter))
+        if end.early or er.erodedCount() > 0:
+            break
+    wall = time.time() - start
+    events = er.core.events()
+    summary = dict(griffith_stress_Pa=sG, a_over_h=a / h, alpha_used=er.core.alpha, ramp_time_s=ramp,
+                   particles=int(mpm.solver.numPoints), steps=int(mpm.solver.steps), wall_time_s=wall,
+                   eroded_at_stop=er.erodedCount(), h_m=h, W_m=W, a_m=a, dt_s=O.dt)
+    if events:
+        _, step, ti = min(events, key=lambda e: e[1])
+        first = [p for p, s, _ in events if s == step]
+        x = mpm.solver.positions()[first]
+        summary.update(initiation_time_s=ti, initiation_stress_Pa=t * min(ti / ramp, 1.0),
+                       initiation_ratio=t * min(ti / ramp, 1.0) / sG,
+                       first_eroded=[list(map(float, p[:2])) for p in x])
+    else:
+        summary.update(initiation_time_s=None, initiation_stress_Pa=None, initiation_ratio=None,
+                       first_eroded=[])
+    return summary, end
+
+
+def main(argv):
+    o, out, quick = scriptArgs("griffith_initiation", DEFAULTS, QUICK, argv)
+    summary, end = run(o)
+    summary.update(parameters=o, quick=quick, **end.summary())
+    os.makedirs(out, exist_ok=True)
+    with open(os.path.join(out, "summary.json"), "w") as f:
+        json.dump(summary, f, indent=1)
+    print(json.dumps({k: summary[k] for k in ("initiation_ratio", "alpha_used", "a_over_h", "steps",
+                                               "wall_time_s")}))
+    finish(end, out)
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
