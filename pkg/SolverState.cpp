@@ -181,6 +181,9 @@ template <int D, class K> std::shared_ptr<Solver<D, K>> Solver<D, K>::loadState(
         r.array(v);
         s->phantom_.restoreCrack(v);
     }
+    // The marked nodes and twins (numTwins) for the cracks' restored position: those the next step
+    // marks first thing (a diagnostic only: every step marks afresh, so the continuation is the same).
+    if (s->initialized_ && !s->phantom_.empty()) s->markCrackedNodes();
 
     r.expect("erosion");
     if (r.value<bool>()) {

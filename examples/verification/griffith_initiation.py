@@ -1,13 +1,18 @@
-"""Initiation of a sharp centre crack under slowly ramped remote tension, against Griffith.
+"""Initiation of a sharp crack under slowly ramped remote tension, against Griffith.
 
 A square glass plate W x W (plane strain, E = 32 GPa, nu = 0.2, rho = 2450 kg/m3, Gc = 3 J/m2)
-holds a phantom-node centre crack of length 2a = 2 aOverW W along x. A traction in y on the
+holds a phantom-node crack along x: a centre crack of length 2a = 2 aOverW W (geometry=centre),
+or an edge crack of length a = aOverW W from the left edge (geometry=edge), at mid-height. The
+crack is moved along x by tipShift cells, so that its tips lie tipShift of a cell off the node
+lines (grid bias). A traction in y on the
 points within h of the top and bottom edges rises linearly from 0 to ratioMax sigma_G over
 rampTransits wave transits W/c, slowly enough for the plate to follow quasi-statically. The run
 stops at the first erosion (eigenerosion, kappa = kappaOverH h) and reports the traction then,
 over Griffith's stress with Feddersen's finite-width correction,
 
-    sigma_G = sqrt(E' Gc / (pi a)) / sqrt(sec(pi a / W)),   E' = E / (1 - nu^2).
+    centre: sigma_G = sqrt(E' Gc / (pi a)) / sqrt(sec(pi a / W)),   E' = E / (1 - nu^2),
+    edge:   sigma_G = sqrt(E' Gc / (pi a)) / F(a/W),  F = 1.12 - 0.231 s + 10.55 s^2 - 21.72 s^3 + 30.39 s^4
+            (Tada's single-edge-cracked strip, s = a/W <= 0.6; the plate here is square).
 
 With the paper's alpha = 2 the ratio is about 1 / sqrt(2 r) = 1.72 (r = 0.168, the initiation
 ratio of doc/fracture.md); with alpha = 'griffith' (alpha = 1 / r) it should be 1 at fine
@@ -17,8 +22,8 @@ Run::
 
     yade -n -x examples/verification/griffith_initiation.py [--quick] [--out DIR] [name=value ...]
 
-with names h_mm (cell size), W_mm, aOverW, alpha (a number or griffith), kappaOverH,
-rampTransits, ratioMax, dtFraction, ppc. --quick: h = 2 mm (a / h = 2), a coarse check that the run
+with names geometry (centre or edge), h_mm (cell size), W_mm, aOverW, tipShift (cells), alpha (a
+number or griffith), kappaOverH, rampTransits, ratioMax, dtFraction, ppc. --quick: h = 2 mm (a / h = 2), a coarse check that the run
 starts a crack near sigma_G. Writes DIR/summary.json: initiation_ratio (traction at the first
 erosion / sigma_G), initiation_stress_Pa, griffith_stress_Pa, initiation_time_s, first_eroded
 (position, m), alpha_used, eroded_at_stop, a_over_h, particles, steps, wall_time_s, ...
@@ -36,15 +41,22 @@ from yade import O, pack
 import eigenmpm as em
 from eigenmpm.cli import finish, runSteps, scriptArgs
 
-DEFAULTS = dict(h_mm=0.5, W_mm=40.0, aOverW=0.1, alpha="griffith", kappaOverH=1.1, rampTransits=60.0,
+DEFAULTS = dict(geometry="centre", h_mm=0.5, W_mm=40.0, aOverW=0.1, tipShift=0.0, alpha="griffith", kappaOverH=1.1, rampTransits=60.0,
                 ratioMax=1.5, dtFraction=0.5, ppc=2, E=32e9, nu=0.2, rho=2450.0, Gc=3.0)
 QUICK = dict(h_mm=2.0)
 
 
-def griffithStress(E, nu, Gc, a, W):
-    """Griffith's remote stress for a centre crack 2a in a plate of width W (plane strain), with
-    Feddersen's finite-width correction."""
-    return math.sqrt(E / (1 - nu * nu) * Gc / (math.pi * a)) / math.sqrt(1.0 / math.cos(math.pi * a / W))
+def griffithStress(E, nu, Gc, a, W, geometry="centre"):
+    """Griffith's remote stress (plane strain) for a centre crack 2a in a plate of width W with
+    Feddersen's finite-width correction, or for an edge crack a with Tada's."""
+    s = a / W
+    if geometry == "edge":
+        F = 1.12 - 0.231 * s + 10.55 * s ** 2 - 21.72 * s ** 3 + 30.39 * s ** 4
+    elif geometry == "centre":
+        F = math.sqrt(1.0 / math.cos(math.pi * s))
+    else:
+        raise ValueError(f"griffith_initiation: geometry = {geometry!r} is invalid; allowed: 'centre' or 'edge'")
+    return math.sqrt(E / (1 - nu * nu) * Gc / (math.pi * a)) / F
 
 
 def run(o):
@@ -56,8 +68,12 @@ def run(o):
     mat = em.ElasticMaterial(E=o["E"], nu=o["nu"], rho=o["rho"])
     mpm.fill(pack.inAlignedBox((0, 0, 0), (W, W, 0)), mat)
     y = 0.5 * W + 0.13 * h  # off the point rows and node lines
-    mpm.crack([(0.5 * W - a, y, 0), (0.5 * W + a, y, 0)])
-    sG = griffithStress(o["E"], o["nu"], o["Gc"], a, W)
+    shift = o["tipShift"] * h
+    if o["geometry"] == "edge":
+        mpm.crack([(-h, y, 0), (a + shift, y, 0)])
+    else:
+        mpm.crack([(0.5 * W - a + shift, y, 0), (0.5 * W + a + shift, y, 0)])
+    sG = griffithStress(o["E"], o["nu"], o["Gc"], a, W, o["geometry"])
     c = math.sqrt(o["E"] * (1 - o["nu"]) / ((1 + o["nu"]) * (1 - 2 * o["nu"]) * o["rho"]))
     ramp = o["rampTransits"] * W / c
     t = o["ratioMax"] * sG
