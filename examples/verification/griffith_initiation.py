@@ -4,7 +4,8 @@ A square glass plate W x W (plane strain, E = 32 GPa, nu = 0.2, rho = 2450 kg/m3
 holds a phantom-node crack along x: a centre crack of length 2a = 2 aOverW W (geometry=centre),
 or an edge crack of length a = aOverW W from the left edge (geometry=edge), at mid-height. The
 crack is moved along x by tipShift cells, so that its tips lie tipShift of a cell off the node
-lines (grid bias). A traction in y on the
+lines (grid bias), and the whole specimen (plate, crack and load) can be turned by angle_deg
+about the plate's centre against the grid axes (grid bias again: the physics do not change). A traction in y on the
 points within h of the top and bottom edges rises linearly from 0 to ratioMax sigma_G over
 rampTransits wave transits W/c, slowly enough for the plate to follow quasi-statically. The run
 stops at the first erosion (eigenerosion, kappa = kappaOverH h) and reports the traction then,
@@ -22,8 +23,8 @@ Run::
 
     yade -n -x examples/verification/griffith_initiation.py [--quick] [--out DIR] [name=value ...]
 
-with names geometry (centre or edge), h_mm (cell size), W_mm, aOverW, tipShift (cells), alpha (a
-number or griffith), kappaOverH, rampTransits, ratioMax, dtFraction, ppc. --quick: h = 2 mm (a / h = 2), a coarse check that the run
+with names geometry (centre or edge), h_mm (cell size), W_mm, aOverW, tipShift (cells), angle_deg,
+alpha (a number or griffith), kappaOverH, rampTransits, ratioMax, dtFraction, ppc. --quick: h = 2 mm (a / h = 2), a coarse check that the run
 starts a crack near sigma_G. Writes DIR/summary.json: initiation_ratio (traction at the first
 erosion / sigma_G), initiation_stress_Pa, griffith_stress_Pa, initiation_time_s, first_eroded
 (position, m), alpha_used, eroded_at_stop, a_over_h, particles, steps, wall_time_s, ...
@@ -41,7 +42,7 @@ from yade import O, pack
 import eigenmpm as em
 from eigenmpm.cli import finish, runSteps, scriptArgs
 
-DEFAULTS = dict(geometry="centre", h_mm=0.5, W_mm=40.0, aOverW=0.1, tipShift=0.0, alpha="griffith", kappaOverH=1.1, rampTransits=60.0,
+DEFAULTS = dict(geometry="centre", h_mm=0.5, W_mm=40.0, aOverW=0.1, tipShift=0.0, angle_deg=0.0, alpha="griffith", kappaOverH=1.1, rampTransits=60.0,
                 ratioMax=1.5, dtFraction=0.5, ppc=2, E=32e9, nu=0.2, rho=2450.0, Gc=3.0)
 QUICK = dict(h_mm=2.0)
 
@@ -59,6 +60,28 @@ def griffithStress(E, nu, Gc, a, W, geometry="centre"):
     return math.sqrt(E / (1 - nu * nu) * Gc / (math.pi * a)) / F
 
 
+class TurnedBand:
+    """yade.pack-style predicate: the points whose coordinates in the plate's frame (turned by
+    `angle` about `centre`) lie in [lo, hi] (x and y), for filling and for selecting edges."""
+
+    def __init__(self, centre, angle, lo, hi):
+        self.c, self.cs, self.sn, self.lo, self.hi = np.array(centre), math.cos(angle), math.sin(angle), lo, hi
+
+    def local(self, p):
+        dx, dy = p[0] - self.c[0], p[1] - self.c[1]
+        return self.cs * dx + self.sn * dy, -self.sn * dx + self.cs * dy
+
+    def __call__(self, p, pad=0.0):
+        u, v = self.local(p)
+        return self.lo[0] <= u <= self.hi[0] and self.lo[1] <= v <= self.hi[1]
+
+    def aabb(self):
+        corners = [(u, v) for u in (self.lo[0], self.hi[0]) for v in (self.lo[1], self.hi[1])]
+        xs = [self.c[0] + self.cs * u - self.sn * v for u, v in corners]
+        ys = [self.c[1] + self.sn * u + self.cs * v for u, v in corners]
+        return (min(xs), min(ys), 0.0), (max(xs), max(ys), 0.0)
+
+
 def run(o):
     O.reset()
     h, W = o["h_mm"] * 1e-3, o["W_mm"] * 1e-3
@@ -66,19 +89,31 @@ def run(o):
     alpha = o["alpha"] if o["alpha"] == "griffith" else float(o["alpha"])
     mpm = em.MpmEngine(dim=2, h=h, ppc=int(o["ppc"]), label="plate")
     mat = em.ElasticMaterial(E=o["E"], nu=o["nu"], rho=o["rho"])
-    mpm.fill(pack.inAlignedBox((0, 0, 0), (W, W, 0)), mat)
+    angle = math.radians(o["angle_deg"])
+    centre = (0.5 * W, 0.5 * W)
+    turn = lambda x, y: (centre[0] + math.cos(angle) * (x - centre[0]) - math.sin(angle) * (y - centre[1]),  # noqa: E731
+                         centre[1] + math.sin(angle) * (x - centre[0]) + math.cos(angle) * (y - centre[1]), 0)
+    half = 0.5 * W
+    if angle == 0:
+        mpm.fill(pack.inAlignedBox((0, 0, 0), (W, W, 0)), mat)
+        top, bottom = pack.inAlignedBox((-1, W - h, -1), (1, 1, 1)), pack.inAlignedBox((-1, -1, -1), (1, h, 1))
+    else:
+        mpm.fill(TurnedBand(centre, angle, (-half, -half), (half, half)), mat)
+        top = TurnedBand(centre, angle, (-2 * half, half - h), (2 * half, 2 * half))
+        bottom = TurnedBand(centre, angle, (-2 * half, -2 * half), (2 * half, -half + h))
     y = 0.5 * W + 0.13 * h  # off the point rows and node lines
     shift = o["tipShift"] * h
     if o["geometry"] == "edge":
-        mpm.crack([(-h, y, 0), (a + shift, y, 0)])
+        mpm.crack([turn(-h, y), turn(a + shift, y)])
     else:
-        mpm.crack([(0.5 * W - a + shift, y, 0), (0.5 * W + a + shift, y, 0)])
+        mpm.crack([turn(0.5 * W - a + shift, y), turn(0.5 * W + a + shift, y)])
     sG = griffithStress(o["E"], o["nu"], o["Gc"], a, W, o["geometry"])
     c = math.sqrt(o["E"] * (1 - o["nu"]) / ((1 + o["nu"]) * (1 - 2 * o["nu"]) * o["rho"]))
     ramp = o["rampTransits"] * W / c
     t = o["ratioMax"] * sG
-    mpm.traction(points=pack.inAlignedBox((-1, W - h, -1), (1, 1, 1)), traction=(0, t, 0), rampTime=ramp)
-    mpm.traction(points=pack.inAlignedBox((-1, -1, -1), (1, h, 1)), traction=(0, -t, 0), rampTime=ramp)
+    n = (-math.sin(angle) * t, math.cos(angle) * t, 0)
+    mpm.traction(points=top, traction=n, rampTime=ramp)
+    mpm.traction(points=bottom, traction=(-n[0], -n[1], 0), rampTime=ramp)
     er = em.EigenErosion(engine=mpm, Gc=o["Gc"], alpha=alpha, kappaOverH=o["kappaOverH"], iterPeriod=1)
     O.engines = [mpm, er]
     O.dt = o["dtFraction"] * mpm.criticalTimeStep()
