@@ -44,8 +44,9 @@ inline double chordFromTip(double theta, double d, double a)
 }
 
 /// kappa <psi+> / G for material m in dimension D (2D: its plane condition; 3D: plane strain
-/// along a straight front), the neighbourhood centred `offset` kappa ahead of the tip (0: on it).
-template <int D> double initiationRatio(const ElasticMaterial& m, CrackMode mode, double offset = 0.0)
+/// along a straight front), the neighbourhood centred `offset` kappa ahead of the tip (0: on it),
+/// for the mixed field K_I = cos(mixity), K_II = sin(mixity) (G = (K_I^2 + K_II^2) / E' = 1 / E').
+template <int D> double initiationRatioMixed(const ElasticMaterial& m, double mixity, double offset = 0.0)
 {
     const bool planeStress = D == 2 && m.planeStress;
     const double E = m.E, nu = m.nu;
@@ -56,7 +57,8 @@ template <int D> double initiationRatio(const ElasticMaterial& m, CrackMode mode
     std::vector<double> phi(nTheta), theta(nTheta);
     for (int i = 0; i < nTheta; ++i) {
         theta[i] = -M_PI + (i + 0.5) * 2.0 * M_PI / nTheta;
-        const Eigen::Vector3d sg = singularStress(mode, theta[i]);
+        const Eigen::Vector3d sg = std::cos(mixity) * singularStress(CrackMode::I, theta[i]) +
+                                   std::sin(mixity) * singularStress(CrackMode::II, theta[i]);
         const double szz = planeStress ? 0.0 : nu * (sg[0] + sg[1]);
         const double tr = sg[0] + sg[1] + szz;
         Mat<D> eps = Mat<D>::Zero();
@@ -83,6 +85,12 @@ template <int D> double initiationRatio(const ElasticMaterial& m, CrackMode mode
         }
         return integral / (4.0 / 3.0 * M_PI) / (1.0 / Eprime);
     }
+}
+
+/// initiationRatioMixed for pure mode I or II.
+template <int D> double initiationRatio(const ElasticMaterial& m, CrackMode mode, double offset = 0.0)
+{
+    return initiationRatioMixed<D>(m, mode == CrackMode::I ? 0.0 : 0.5 * M_PI, offset);
 }
 
 /// Griffith's alpha for Eq 24: 1 / initiationRatio in mode I, neighbourhood on the tip.

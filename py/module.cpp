@@ -6,6 +6,8 @@
 #include <boost/python/numpy.hpp>
 #include <cctype>
 #include <cstdint>
+#include <limits>
+#include <cmath>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -393,20 +395,24 @@ BOOST_PYTHON_MODULE(_eigenmpm)
     }, "Names of the registered constitutive laws (ElasticMaterial(split=...)), in index order.");
     bp::def("initiationRatio",
             +[](int dim, double E, double nu, bool planeStress, const std::string& split, const std::string& mode,
-                double offset) {
+                double offset, double mixityDeg) {
                 require(dim == 2 || dim == 3, "dim", dim, "2 or 3");
                 require(mode == "I" || mode == "II", "mode", mode, "'I' or 'II'");
                 require(std::isfinite(offset) && offset >= 0 && offset <= 1, "offset (fraction of kappa)", offset,
                         "0 <= offset <= 1");
+                require(std::isnan(mixityDeg) || std::fabs(mixityDeg) <= 90, "mixity_deg", mixityDeg,
+                        "-90 <= mixity_deg <= 90, or NaN (pure mode)");
                 const auto m = ElasticMaterial::make(E, nu, 1.0, planeStress, dim, lawId(split));
-                const CrackMode cm = mode == "I" ? CrackMode::I : CrackMode::II;
-                return dim == 2 ? initiationRatio<2>(m, cm, offset) : initiationRatio<3>(m, cm, offset);
+                const double psi = std::isnan(mixityDeg) ? (mode == "I" ? 0.0 : 0.5 * M_PI) : mixityDeg * M_PI / 180.0;
+                return dim == 2 ? initiationRatioMixed<2>(m, psi, offset) : initiationRatioMixed<3>(m, psi, offset);
             },
             (bp::arg("dim"), bp::arg("E"), bp::arg("nu"), bp::arg("planeStress"), bp::arg("split"),
-             bp::arg("mode") = "I", bp::arg("offset") = 0.0),
+             bp::arg("mode") = "I", bp::arg("offset") = 0.0,
+             bp::arg("mixity_deg") = std::numeric_limits<double>::quiet_NaN()),
             "kappa <psi+> / G of Eq 23 on the singular field of a sharp straight crack (doc/fracture.md): "
             "Eq 24 starts such a crack at G = Gc / (alpha ratio); alpha = 1/ratio is Griffith's. offset: "
-            "where the neighbourhood is centred ahead of the tip, as a fraction of kappa.");
+            "where the neighbourhood is centred ahead of the tip, as a fraction of kappa. mixity_deg: a "
+            "mixed field K_I = cos, K_II = sin of that angle (G = K_I^2 + K_II^2 over E'), instead of mode.");
     BindErosion<2>::expose("Erosion2");
     BindErosion<3>::expose("Erosion3");
     // One class per configuration (Configurations.hpp), named Solver<D><Kernel name>, and the

@@ -4,7 +4,9 @@ A square glass plate W x W (plane strain, E = 32 GPa, nu = 0.2, rho = 2450 kg/m3
 holds a phantom-node crack along x: a centre crack of length 2a = 2 aOverW W (geometry=centre),
 or an edge crack of length a = aOverW W from the left edge (geometry=edge), at mid-height. The
 crack is moved along x by tipShift cells, so that its tips lie tipShift of a cell off the node
-lines (grid bias), and the whole specimen (plate, crack and load) can be turned by angle_deg
+lines (grid bias); crackAngle_deg inclines the centre crack by beta against x (the load stays
+along y: mixed mode, K_I = sigma sqrt(pi a) cos^2 beta, K_II = sigma sqrt(pi a) sin beta cos beta);
+and the whole specimen (plate, crack and load) can be turned by angle_deg
 about the plate's centre against the grid axes (grid bias again: the physics do not change). A traction in y on the
 points within h of the top and bottom edges rises linearly from 0 to ratioMax sigma_G over
 rampTransits wave transits W/c, slowly enough for the plate to follow quasi-statically. The run
@@ -17,13 +19,19 @@ over Griffith's stress with Feddersen's finite-width correction,
 
 With the paper's alpha = 2 the ratio is about 1 / sqrt(2 r) = 1.72 (r = 0.168, the initiation
 ratio of doc/fracture.md); with alpha = 'griffith' (alpha = 1 / r) it should be 1 at fine
-resolution.
+resolution. For an inclined crack the summary also gives two predictions of the initiation
+traction over sigma_G of the straight crack: Eq 24 on the mixed field (pred_erosion_ratio =
+sqrt(r_I / r(beta)) / cos beta with alpha = 1 / r_I, r(beta) the ratio at mixity beta) and the
+maximum hoop stress criterion (pred_mts_ratio), with its kink angle pred_mts_kink_deg; with
+kinkPoints = N > 0 the run goes on until N points have eroded and kink_deg is the direction, from
+the right tip and against the crack, of the eroded points more than kappa from it.
 
 Run::
 
     yade -n -x examples/verification/griffith_initiation.py [--quick] [--out DIR] [name=value ...]
 
 with names geometry (centre or edge), h_mm (cell size), W_mm, aOverW, tipShift (cells), angle_deg,
+crackAngle_deg, kinkPoints,
 alpha (a number or griffith), kappaOverH, rampTransits, ratioMax, dtFraction, ppc. --quick: h = 2 mm (a / h = 2), a coarse check that the run
 starts a crack near sigma_G. Writes DIR/summary.json: initiation_ratio (traction at the first
 erosion / sigma_G), initiation_stress_Pa, griffith_stress_Pa, initiation_time_s, first_eroded
@@ -40,9 +48,11 @@ import numpy as np
 from yade import O, pack
 
 import eigenmpm as em
+from eigenmpm import _eigenmpm
 from eigenmpm.cli import finish, runSteps, scriptArgs
 
-DEFAULTS = dict(geometry="centre", h_mm=0.5, W_mm=40.0, aOverW=0.1, tipShift=0.0, angle_deg=0.0, alpha="griffith", kappaOverH=1.1, rampTransits=60.0,
+DEFAULTS = dict(geometry="centre", h_mm=0.5, W_mm=40.0, aOverW=0.1, tipShift=0.0, angle_deg=0.0,
+                crackAngle_deg=0.0, kinkPoints=0, alpha="griffith", kappaOverH=1.1, rampTransits=60.0,
                 ratioMax=1.5, dtFraction=0.5, ppc=2, E=32e9, nu=0.2, rho=2450.0, Gc=3.0)
 QUICK = dict(h_mm=2.0)
 
@@ -106,7 +116,10 @@ def run(o):
     if o["geometry"] == "edge":
         mpm.crack([turn(-h, y), turn(a + shift, y)])
     else:
-        mpm.crack([turn(0.5 * W - a + shift, y), turn(0.5 * W + a + shift, y)])
+        beta = math.radians(o["crackAngle_deg"])
+        ends = [(0.5 * W + shift + sgn * a * math.cos(beta), y + sgn * a * math.sin(beta)) for sgn in (-1, 1)]
+        mpm.crack([turn(*ends[0]), turn(*ends[1])])
+        tip = np.array(turn(*ends[1])[:2])
     sG = griffithStress(o["E"], o["nu"], o["Gc"], a, W, o["geometry"])
     c = math.sqrt(o["E"] * (1 - o["nu"]) / ((1 + o["nu"]) * (1 - 2 * o["nu"]) * o["rho"]))
     ramp = o["rampTransits"] * W / c
@@ -122,7 +135,7 @@ def run(o):
     end, chunk = None, 20
     while O.iter < steps:
         end = runSteps(min(chunk, steps - O.iter))
-        if end.early or er.erodedCount() > 0:
+        if end.early or er.erodedCount() >= max(1, int(o["kinkPoints"])):
             break
     wall = time.time() - start
     events = er.core.events()
@@ -139,6 +152,24 @@ def run(o):
     else:
         summary.update(initiation_time_s=None, initiation_stress_Pa=None, initiation_ratio=None,
                        first_eroded=[])
+    if o["geometry"] == "centre" and o["crackAngle_deg"] != 0:
+        b = math.radians(o["crackAngle_deg"])
+        rI = _eigenmpm.initiationRatio(2, o["E"], o["nu"], False, "spectral")
+        rb = _eigenmpm.initiationRatio(2, o["E"], o["nu"], False, "spectral", mixity_deg=o["crackAngle_deg"])
+        tb = math.tan(b)
+        kink = 2 * math.atan((1 - math.sqrt(1 + 8 * tb * tb)) / (4 * tb))
+        KI, KII = math.cos(b) ** 2, math.sin(b) * math.cos(b)
+        keq = math.cos(kink / 2) * (KI * math.cos(kink / 2) ** 2 - 1.5 * KII * math.sin(kink))
+        summary.update(pred_erosion_ratio=math.sqrt(rI / rb) / math.cos(b), pred_mts_ratio=1.0 / keq,
+                       pred_mts_kink_deg=math.degrees(kink))
+        if int(o["kinkPoints"]) > 0 and events:
+            t = np.array([math.cos(b + angle), math.sin(b + angle)])
+            n = np.array([-t[1], t[0]])
+            rel = mpm.solver.positions()[[p for p, _, _ in events], :2] - tip
+            u, v = rel @ t, rel @ n
+            far = (np.hypot(u, v) > o["kappaOverH"] * h) & (u > -o["kappaOverH"] * h)
+            summary.update(kink_deg=math.degrees(math.atan2(v[far].mean(), u[far].mean())) if far.any() else None,
+                           kink_points=int(far.sum()))
     return summary, end
 
 
@@ -149,8 +180,9 @@ def main(argv):
     os.makedirs(out, exist_ok=True)
     with open(os.path.join(out, "summary.json"), "w") as f:
         json.dump(summary, f, indent=1)
-    print(json.dumps({k: summary[k] for k in ("initiation_ratio", "alpha_used", "a_over_h", "steps",
-                                               "wall_time_s")}))
+    print(json.dumps({k: summary[k] for k in ("initiation_ratio", "alpha_used", "a_over_h", "steps", "wall_time_s",
+                                               "pred_erosion_ratio", "pred_mts_ratio", "pred_mts_kink_deg",
+                                               "kink_deg") if k in summary}))
     finish(end, out)
 
 
