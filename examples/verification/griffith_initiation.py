@@ -24,7 +24,10 @@ traction over sigma_G of the straight crack: Eq 24 on the mixed field (pred_eros
 sqrt(r_I / r(beta)) / cos beta with alpha = 1 / r_I, r(beta) the ratio at mixity beta) and the
 maximum hoop stress criterion (pred_mts_ratio), with its kink angle pred_mts_kink_deg; with
 kinkPoints = N > 0 the run goes on until N points have eroded and kink_deg is the direction, from
-the right tip and against the crack, of the eroded points more than kappa from it.
+the right tip and against the crack, of the eroded points more than kappa from it; for a straight
+crack the summary then also has the crack length grown (grown_length_m), the dissipated energy
+over Gc t (dissipated_over_Gc_t_m, t the thickness) and |C_kappa| / (2 kappa) of the eroded set
+(C_kappa_over_2kappa_m), which for a straight cut of length L is L + pi kappa / 2 per free end.
 
 Run::
 
@@ -92,6 +95,30 @@ class TurnedBand:
         return (min(xs), min(ys), 0.0), (max(xs), max(ys), 0.0)
 
 
+def propagation(mpm, er, events, o, h, W, a, shift):
+    """Energy of the crack grown from a straight crack (kinkPoints > 0): the crack length produced
+    (along x beyond the initial tips), the engine's dissipated energy (Eq 33) over Gc t, and
+    |C_kappa| / (2 kappa) of the eroded set (C_kappa: the points of the plane within kappa of an
+    eroded point, measured on a raster of kappa/40), which for a straight cut of length L is
+    L + pi kappa / 2 per free end. Lengths in m."""
+    from scipy.spatial import cKDTree
+    kappa = o["kappaOverH"] * h
+    x = mpm.solver.positions()[[p for p, _, _ in events], :2]
+    if o["geometry"] == "edge":
+        grown = max(0.0, x[:, 0].max() - (a + shift))
+    else:
+        grown = max(0.0, x[:, 0].max() - (0.5 * W + a + shift)) + max(0.0, (0.5 * W - a + shift) - x[:, 0].min())
+    step = kappa / 40
+    lo, hi = x.min(axis=0) - kappa, x.max(axis=0) + kappa
+    gx, gy = np.meshgrid(np.arange(lo[0], hi[0], step) + 0.5 * step, np.arange(lo[1], hi[1], step) + 0.5 * step)
+    cells = np.column_stack([gx.ravel(), gy.ravel()])
+    d, _ = cKDTree(x).query(cells, distance_upper_bound=kappa * (1 + 1e-9))
+    area = np.count_nonzero(np.isfinite(d)) * step * step
+    return dict(grown_length_m=grown, dissipated_J=er.dissipatedEnergy(),
+                dissipated_over_Gc_t_m=er.dissipatedEnergy() / (o["Gc"] * mpm.thickness),
+                C_kappa_over_2kappa_m=area / (2 * kappa), kappa_m=kappa, eroded_points=len(events))
+
+
 def run(o):
     O.reset()
     h, W = o["h_mm"] * 1e-3, o["W_mm"] * 1e-3
@@ -152,6 +179,8 @@ def run(o):
     else:
         summary.update(initiation_time_s=None, initiation_stress_Pa=None, initiation_ratio=None,
                        first_eroded=[])
+    if int(o["kinkPoints"]) > 0 and events and o["crackAngle_deg"] == 0 and o["angle_deg"] == 0:
+        summary.update(propagation(mpm, er, events, o, h, W, a, shift))
     if o["geometry"] == "centre" and o["crackAngle_deg"] != 0:
         b = math.radians(o["crackAngle_deg"])
         rI = _eigenmpm.initiationRatio(2, o["E"], o["nu"], False, "spectral")
@@ -182,7 +211,8 @@ def main(argv):
         json.dump(summary, f, indent=1)
     print(json.dumps({k: summary[k] for k in ("initiation_ratio", "alpha_used", "a_over_h", "steps", "wall_time_s",
                                                "pred_erosion_ratio", "pred_mts_ratio", "pred_mts_kink_deg",
-                                               "kink_deg") if k in summary}))
+                                               "kink_deg", "grown_length_m", "dissipated_over_Gc_t_m",
+                                               "C_kappa_over_2kappa_m") if k in summary}))
     finish(end, out)
 
 

@@ -148,3 +148,22 @@ def test_griffith_initiation_quick_inclined_crack_against_the_mixed_mode_predict
     assert m.initiationRatio(2, 32e9, 0.2, False, "spectral", mixity_deg=0.0) == m.initiationRatio(2, 32e9, 0.2, False, "spectral")
     assert m.initiationRatio(2, 32e9, 0.2, False, "spectral", mixity_deg=90.0) == pytest.approx(
         m.initiationRatio(2, 32e9, 0.2, False, "spectral", mode="II"), rel=1e-12)
+
+
+def test_griffith_initiation_quick_propagation_energy_outputs(tmp_path):
+    """With kinkPoints the straight crack grows on; the summary compares the engine's dissipated
+    energy (Eq 33) with Gc t times the length grown, and gives |C_kappa| / (2 kappa) of the eroded
+    set, which for any cut of length L is at least L (plus pi kappa / 2 per free end for a
+    straight one). --quick (h = 2 mm): the crack cuts the plate (31 mm grown)."""
+    import json
+    script = os.path.join(ROOT, "examples", "verification", "griffith_initiation.py")
+    env = dict(os.environ, PYTHONPATH=os.path.join(ROOT, "build", "python"))
+    res = subprocess.run(["yade", "-n", "-x", script, "--quick", "kinkPoints=60", "ratioMax=2", "--out", str(tmp_path)],
+                         env=env, capture_output=True, text=True, timeout=300, stdin=subprocess.DEVNULL)
+    assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
+    s = json.load(open(tmp_path / "summary.json"))
+    assert s["eroded_points"] >= 60
+    assert 0.02 < s["grown_length_m"] <= 0.032  # at most the ligaments, 2 x 16 mm
+    assert s["C_kappa_over_2kappa_m"] > s["grown_length_m"]
+    vol = (s["h_m"] / 2) ** 2  # the points' area, ppc = 2, thickness 1 m
+    assert s["dissipated_over_Gc_t_m"] == pytest.approx(s["eroded_points"] * vol / (2 * s["kappa_m"]), rel=1e-9)
