@@ -175,7 +175,7 @@ def main(argv):
         ax.plot(u[i_init] * 1e3, Fs[i_init] / 1e3, "rv", label="EigenMPM, first erosion")
     ax.set_xlabel("vertical displacement (mm)")
     ax.set_ylabel("load (kN)")
-    ax.set_title(f"L-shaped panel, h = {o['h_mm']:g} mm, alpha = {o['alpha']:g}, kappa = {o['kappaOverH']:g} h")
+    ax.set_title(f"L-shaped panel, h = {o['h_mm']:g} mm, alpha = {o['alpha'] if isinstance(o['alpha'], str) else format(o['alpha'], 'g')}, kappa = {o['kappaOverH']:g} h")
     ax.legend()
     fig.tight_layout()
     fig.savefig(os.path.join(out, "load_displacement.png"), dpi=130)

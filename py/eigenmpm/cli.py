@@ -85,7 +85,14 @@ def checkpointArgs(name, argv=None):
     return rest, resume, every
 
 
+# Names a numeric script parameter may be given instead of a number (EigenErosion's alpha).
+KEYWORDS = {"alpha": ("griffith",)}
+
+
 def _convert(default, text, key, name):
+    for word in KEYWORDS.get(key, ()):
+        if text.lower() == word:
+            return word
     try:
         if isinstance(default, bool):
             return text.lower() in ("1", "true", "yes")

@@ -167,3 +167,16 @@ def test_griffith_initiation_quick_propagation_energy_outputs(tmp_path):
     assert s["C_kappa_over_2kappa_m"] > s["grown_length_m"]
     vol = (s["h_m"] / 2) ** 2  # the points' area, ppc = 2, thickness 1 m
     assert s["dissipated_over_Gc_t_m"] == pytest.approx(s["eroded_points"] * vol / (2 * s["kappa_m"]), rel=1e-9)
+
+
+def test_script_parameters_take_alpha_griffith_and_refuse_other_words():
+    """Every example's command line takes alpha=griffith (EigenErosion's keyword) in place of a
+    number; any other word is refused with the parameter's name, as before."""
+    from eigenmpm.cli import scriptArgs
+    o, _, _ = scriptArgs("x", dict(alpha=2.0, h_mm=1.0), argv=["alpha=Griffith", "h_mm=0.5"])
+    assert o == dict(alpha="griffith", h_mm=0.5)
+    assert scriptArgs("x", dict(alpha=2.0), argv=["alpha=1.5"])[0]["alpha"] == 1.5
+    with pytest.raises(SystemExit, match="alpha = 'grifith' is not a float"):
+        scriptArgs("x", dict(alpha=2.0), argv=["alpha=grifith"])
+    with pytest.raises(SystemExit, match="h_mm = 'griffith' is not a float"):
+        scriptArgs("x", dict(h_mm=1.0), argv=["h_mm=griffith"])
