@@ -32,14 +32,18 @@ over Gc t (dissipated_over_Gc_t_m, t the thickness) and |C_kappa| / (2 kappa) of
 Run::
 
     yade -n -x examples/verification/griffith_initiation.py [--quick] [--out DIR] [name=value ...]
+        [--checkpoint-every N] [--resume DIR/checkpoints]
 
 with names geometry (centre or edge), h_mm (cell size), W_mm, aOverW, tipShift (cells), angle_deg,
 crackAngle_deg, kinkPoints,
 alpha (a number or griffith), kappaOverH, rampTransits, ratioMax, dtFraction, ppc. --quick: h = 2 mm (a / h = 2), a coarse check that the run
 starts a crack near sigma_G. Writes DIR/summary.json: initiation_ratio (traction at the first
 erosion / sigma_G), initiation_stress_Pa, griffith_stress_Pa, initiation_time_s, first_eroded
-(position, m), alpha_used, eroded_at_stop, a_over_h, particles, steps, wall_time_s, ...
-Default DIR: out/griffith_initiation.
+(position, m), alpha_used, eroded_at_stop, a_over_h, particles, steps, wall_time_s (of this run),
+resumed_from_iteration (0 unless --resume), ...
+Default DIR: out/griffith_initiation. --checkpoint-every N saves the scene every N iterations into
+DIR/checkpoints; --resume DIR/checkpoints, with the same parameters, continues from the newest one
+to the same summary (doc/restart.md).
 """
 import json
 import math
@@ -52,7 +56,7 @@ from yade import O, pack
 
 import eigenmpm as em
 from eigenmpm import _eigenmpm
-from eigenmpm.cli import finish, runSteps, scriptArgs
+from eigenmpm.cli import checkpointArgs, finish, runSteps, scriptArgs
 
 DEFAULTS = dict(geometry="centre", h_mm=0.5, W_mm=40.0, aOverW=0.1, tipShift=0.0, angle_deg=0.0,
                 crackAngle_deg=0.0, kinkPoints=0, alpha="griffith", kappaOverH=1.1, rampTransits=60.0,
@@ -119,56 +123,67 @@ def propagation(mpm, er, events, o, h, W, a, shift):
                 C_kappa_over_2kappa_m=area / (2 * kappa), kappa_m=kappa, eroded_points=len(events))
 
 
-def run(o):
+def run(o, checkpoints=None, checkpointEvery=0, resume=None):
+    """The plate's run to the stop; with checkpointEvery > 0 a Checkpoint engine saves it every
+    checkpointEvery iterations into `checkpoints`; with `resume` (a folder of checkpoints) the
+    run continues from the newest one instead of being built."""
     O.reset()
     h, W = o["h_mm"] * 1e-3, o["W_mm"] * 1e-3
     a = o["aOverW"] * W
     alpha = o["alpha"] if o["alpha"] == "griffith" else float(o["alpha"])
-    mpm = em.MpmEngine(dim=2, h=h, ppc=int(o["ppc"]), label="plate")
-    mat = em.ElasticMaterial(E=o["E"], nu=o["nu"], rho=o["rho"])
     angle = math.radians(o["angle_deg"])
     centre = (0.5 * W, 0.5 * W)
     turn = lambda x, y: (centre[0] + math.cos(angle) * (x - centre[0]) - math.sin(angle) * (y - centre[1]),  # noqa: E731
                          centre[1] + math.sin(angle) * (x - centre[0]) + math.cos(angle) * (y - centre[1]), 0)
     half = 0.5 * W
-    if angle == 0:
-        mpm.fill(pack.inAlignedBox((0, 0, 0), (W, W, 0)), mat)
-        top, bottom = pack.inAlignedBox((-1, W - h, -1), (1, 1, 1)), pack.inAlignedBox((-1, -1, -1), (1, h, 1))
-    else:
-        mpm.fill(TurnedBand(centre, angle, (-half, -half), (half, half)), mat)
-        top = TurnedBand(centre, angle, (-2 * half, half - h), (2 * half, 2 * half))
-        bottom = TurnedBand(centre, angle, (-2 * half, -2 * half), (2 * half, -half + h))
     y = 0.5 * W + 0.13 * h  # off the point rows and node lines
     shift = o["tipShift"] * h
-    if o["geometry"] == "edge":
-        mpm.crack([turn(-h, y), turn(a + shift, y)])
-    else:
-        beta = math.radians(o["crackAngle_deg"])
-        ends = [(0.5 * W + shift + sgn * a * math.cos(beta), y + sgn * a * math.sin(beta)) for sgn in (-1, 1)]
-        mpm.crack([turn(*ends[0]), turn(*ends[1])])
-        tip = np.array(turn(*ends[1])[:2])
+    beta = math.radians(o["crackAngle_deg"])
+    ends = [(0.5 * W + shift + sgn * a * math.cos(beta), y + sgn * a * math.sin(beta)) for sgn in (-1, 1)]
+    tip = np.array(turn(*ends[1])[:2])
     sG = griffithStress(o["E"], o["nu"], o["Gc"], a, W, o["geometry"])
     c = math.sqrt(o["E"] * (1 - o["nu"]) / ((1 + o["nu"]) * (1 - 2 * o["nu"]) * o["rho"]))
     ramp = o["rampTransits"] * W / c
     t = o["ratioMax"] * sG
-    n = (-math.sin(angle) * t, math.cos(angle) * t, 0)
-    mpm.traction(points=top, traction=n, rampTime=ramp)
-    mpm.traction(points=bottom, traction=(-n[0], -n[1], 0), rampTime=ramp)
-    er = em.EigenErosion(engine=mpm, Gc=o["Gc"], alpha=alpha, kappaOverH=o["kappaOverH"], iterPeriod=1)
-    O.engines = [mpm, er]
-    O.dt = o["dtFraction"] * mpm.criticalTimeStep()
+    if resume:  # the scene as checkpointed (doc/restart.md)
+        em.checkpoint.resume(resume)
+        mpm, er = em.findEngine("plate"), next(e for e in O.engines if isinstance(e, em.EigenErosion))
+    else:
+        mpm = em.MpmEngine(dim=2, h=h, ppc=int(o["ppc"]), label="plate")
+        mat = em.ElasticMaterial(E=o["E"], nu=o["nu"], rho=o["rho"])
+        if angle == 0:
+            mpm.fill(pack.inAlignedBox((0, 0, 0), (W, W, 0)), mat)
+            top, bottom = pack.inAlignedBox((-1, W - h, -1), (1, 1, 1)), pack.inAlignedBox((-1, -1, -1), (1, h, 1))
+        else:
+            mpm.fill(TurnedBand(centre, angle, (-half, -half), (half, half)), mat)
+            top = TurnedBand(centre, angle, (-2 * half, half - h), (2 * half, 2 * half))
+            bottom = TurnedBand(centre, angle, (-2 * half, -2 * half), (2 * half, -half + h))
+        if o["geometry"] == "edge":
+            mpm.crack([turn(-h, y), turn(a + shift, y)])
+        else:
+            mpm.crack([turn(*ends[0]), turn(*ends[1])])
+        n = (-math.sin(angle) * t, math.cos(angle) * t, 0)
+        mpm.traction(points=top, traction=n, rampTime=ramp)
+        mpm.traction(points=bottom, traction=(-n[0], -n[1], 0), rampTime=ramp)
+        er = em.EigenErosion(engine=mpm, Gc=o["Gc"], alpha=alpha, kappaOverH=o["kappaOverH"], iterPeriod=1)
+        O.engines = [mpm, er]
+        if checkpointEvery:
+            O.engines = [em.Checkpoint(directory=checkpoints, iterPeriod=checkpointEvery)] + list(O.engines)
+        O.dt = o["dtFraction"] * mpm.criticalTimeStep()
     steps = int(math.ceil(ramp / O.dt))
-    start = time.time()
-    end, chunk = None, 20
+    start, first = time.time(), O.iter
+    # Chunks of 20 steps from iteration 0 (a resumed run keeps the same boundaries), the erosion
+    # checked at each boundary.
+    end, chunk = runSteps(0), 20
     while O.iter < steps:
-        end = runSteps(min(chunk, steps - O.iter))
+        end = runSteps(min(chunk - O.iter % chunk, steps - O.iter))
         if end.early or er.erodedCount() >= max(1, int(o["kinkPoints"])):
             break
     wall = time.time() - start
     events = er.core.events()
     summary = dict(griffith_stress_Pa=sG, a_over_h=a / h, alpha_used=er.core.alpha, ramp_time_s=ramp,
                    particles=int(mpm.solver.numPoints), steps=int(mpm.solver.steps), wall_time_s=wall,
-                   eroded_at_stop=er.erodedCount(), h_m=h, W_m=W, a_m=a, dt_s=O.dt)
+                   eroded_at_stop=er.erodedCount(), h_m=h, W_m=W, a_m=a, dt_s=O.dt, resumed_from_iteration=first)
     if events:
         _, step, ti = min(events, key=lambda e: e[1])
         first = [p for p, s, _ in events if s == step]
@@ -203,8 +218,9 @@ def run(o):
 
 
 def main(argv):
+    argv, resume, every = checkpointArgs("griffith_initiation", argv)
     o, out, quick = scriptArgs("griffith_initiation", DEFAULTS, QUICK, argv)
-    summary, end = run(o)
+    summary, end = run(o, os.path.join(out, "checkpoints"), every, resume)
     summary.update(parameters=o, quick=quick, **end.summary())
     os.makedirs(out, exist_ok=True)
     with open(os.path.join(out, "summary.json"), "w") as f:

@@ -275,7 +275,7 @@ def _resumeExample(tmp_path, script, params, every, checkpoints, csvs):
     sa, sb = (json.loads((d / "summary.json").read_text()) for d in (a, b))
     assert sorted(sa) == sorted(sb)
     for k in sa:
-        if k not in ("wall_time_s", "particle_steps_per_s"):
+        if k not in ("wall_time_s", "particle_steps_per_s", "resumed_from_iteration"):
             assert sa[k] == sb[k], k
     return sa, sb
 
@@ -472,3 +472,14 @@ def test_bar_convergence_resumes_an_interrupted_sweep_to_the_same_table(tmp_path
     assert sorted(os.listdir(ck / "linear-40")) == ["checkpoint-000000900", "checkpoint-000000961"]
     assert {run: (ck / run / f"checkpoint-{steps:09d}").stat().st_mtime_ns
             for run, steps in (("uGIMP-10", 241), ("uGIMP-20", 481), ("uGIMP-40", 961), ("linear-10", 241))} == ends
+
+
+def test_griffith_initiation_resumes_from_its_checkpoint_to_the_same_end_state(tmp_path):
+    """griffith_initiation.py --quick kinkPoints=60 --checkpoint-every 400, then --resume: the
+    newest checkpoint (iteration 800) lies before the first erosion (iteration ~1000), so the
+    resumed run must start the crack in the same step, at the same traction, and grow it to the
+    same eroded set (the erosion engine and its events come back with the scene)."""
+    sa, sb = _resumeExample(tmp_path, "verification/griffith_initiation.py", ["kinkPoints=60", "ratioMax=2"], 400,
+                            ["checkpoint-000000400", "checkpoint-000000800"], [])
+    assert sa["initiation_ratio"] > 0.7 and sa["eroded_points"] >= 60
+    assert (sa["resumed_from_iteration"], sb["resumed_from_iteration"]) == (0, 800)
