@@ -57,7 +57,8 @@ the VTK series continues in the first run's folder).
 
 params: gamma, h_mm, kappaOverH, alpha, endTime_us, dt_us, v0_m_s, rampTime_us, overhang_mm,
 flaw_mm, notchWidth_mm, flawWidth_mm, supportWidth_mm, loadWidth_mm, stopAfter_us, vtkPeriod_us, E, nu, rho, Gc. Writes
-DIR/summary.json (crack_origin, initiation_time_us, notch_/midspan_initiation_time_us, the
+DIR/summary.json (crack_origin, initiation_time_us, notch_/midspan_initiation_time_us and the load
+and nominal midspan bending stress then (notch_/midspan_initiation_load_N, ..._midspan_stress_Pa), the
 crack tops, eroded_elsewhere, peak_load_N, dissipated_energy_J, particles, steps, wall_time_s,
 particle_steps_per_s, ...), DIR/damage.png, DIR/load.png (load-point and support reactions)
 and a VTK series DIR/vtk/beam-*.vtp.
@@ -242,6 +243,12 @@ def main(argv):
     curve = np.array(watch.curve)
     t = mpm.solver.time
     u = rampDisplacement(t, o["v0_m_s"], o["rampTime_us"] * 1e-6)  # imposed load-point displacement
+    for site in ("notch", "midspan"):  # the load when each site's crack started (issue 15 item 4)
+        ti = summary[f"{site}_initiation_time_us"]
+        P = float(np.interp(ti * 1e-6, curve[:, 0], curve[:, 1])) if ti is not None else None
+        summary[f"{site}_initiation_load_N"] = P
+        # Nominal bending stress at the bottom of the midspan, 3 P L / (2 t D^2), t = thickness h.
+        summary[f"{site}_initiation_midspan_stress_Pa"] = 3 * P * L / (2 * h * D * D) if P is not None else None
     summary.update(end_time_us=1e6 * t, load_point_displacement_mm=1e3 * u, peak_load_N=float(curve[:, 1].max()),
                    thickness_m=h, dissipated_energy_J=cs["dissipated_energy_J"], eroded_count=cs["eroded_count"],
                    particles=n, steps=steps, wall_time_s=wall, particle_steps_per_s=n * steps / wall, dt_s=O.dt,
