@@ -40,7 +40,6 @@ bonds, eroded points, mpm_/dem_wall_s, particles, steps, wall_time_s, particle_s
 calibration), DIR/load_displacement.csv/.png and DIR/crack_patterns.png.
 --quick: h = 20 mm, r = 10 mm.
 """
-import json
 import os
 import sys
 import time
@@ -51,8 +50,7 @@ import numpy as np
 
 import eigenmpm as em
 from eigenmpm import dem
-from eigenmpm.cli import checkpointArgs, finish, runSteps, scriptArgs
-from eigenmpm.ramp import rampTimeTo
+from eigenmpm.cli import checkpointArgs, finish, scriptArgs
 
 DEFAULTS = dict(h_mm=10.0, radius_mm=5.0, layers=3, model="cpm", calibrate=1, velocity_m_s=0.02,
                 rampTime_ms=2.0, endDisplacement_mm=0.5, dtFraction=0.8, demDamping=0.0, alpha=1.5,
@@ -95,22 +93,6 @@ def build(o):
     return pair
 
 
-def resumed(directory):
-    """The DemMpmPair of the newest checkpoint in `directory`, its scene loaded (doc/restart.md): the
-    owner of the `record` runner, restored with both models' records. The checkpoint keeps copies
-    of the DEM specimen's YADE engines and functors with it; they are pointed back at the loaded
-    scene's (JCFpm's crack energies are read from its law)."""
-    em.checkpoint.resume(directory)
-    (pair,) = [e.function.__self__ for e in O.engines if e.label == "record"]
-    d, engines = pair.dem, {e.label: e for e in O.engines}
-    d.engineList = [engines[f"{d.tag}_{n}"] for n in ("forces", "collider", "interactions", "newton")]
-    d.bo1 = engines[f"{d.tag}_collider"].boundDispatcher.functors[0]
-    loop = engines[f"{d.tag}_interactions"]
-    d.ig2, d.law = loop.geomDispatcher.functors[0], loop.lawDispatcher.functors[0]
-    O.timingEnabled = True  # the engine times of the summary
-    return pair
-
-
 def main(argv):
     argv, resume, every = checkpointArgs("dem_lshaped_panel", argv)
     o, out, quick = scriptArgs("dem_lshaped_panel", DEFAULTS, QUICK, argv)
@@ -119,31 +101,14 @@ def main(argv):
                          f"{o['model']!r}: {CPM_NOT_SAVED}")
     os.makedirs(out, exist_ok=True)
     cpu0 = time.process_time()
-    displacement = o["endDisplacement_mm"] * 1e-3
-    if resume:  # the scene, both models and their records as checkpointed
-        pair = resumed(resume)
-    else:
-        pair = build(o)
-        pair.setTimeStep(o["dtFraction"])
-    # dem.runToDisplacement's run, with a checkpoint engine first when asked for
-    steps = int(round(rampTimeTo(displacement, o["velocity_m_s"], o["rampTime_ms"] * 1e-3) / O.dt))
-    if not resume:
-        O.engines = pair.engines() + [em.callEvery(pair.record, iterPeriod=max(1, steps // 1000), label="record"),
-                                      em.Progress(endIter=steps, realPeriod=30)]
-        if every:
-            O.engines = [em.Checkpoint(directory=os.path.join(out, "checkpoints"), iterPeriod=every)] + list(O.engines)
-    print(f"MPM {pair.mpm.solver.numPoints} points, DEM {len(pair.dem.ids)} spheres ({pair.layers} layers), "
-          f"dt {O.dt:.3g} s, {steps} steps from iteration {O.iter}", flush=True)
+    pair = dem.resumePair(resume) if resume else build(o)  # resumed: the scene, both models, their records
     title = (f"L-shaped panel: MPM h = {o['h_mm']:g} mm, DEM {o['model'].upper()} "
              f"r = {o['radius_mm']:g} mm x {pair.layers} layers")
-    start = time.time()
-    end = runSteps(steps - O.iter)  # Ctrl-C, SIGTERM or a solver error: outputs up to the stop, then finish()
-    summary = dem.report(pair, out, "load", title=title, wall=time.time() - start, sign=1.0, band=experiment(),
-                         extra=dict(parameters=o, quick=quick, **end.summary(), imposed_displacement_m=displacement),
-                         cpu=time.process_time() - cpu0)
-    print(json.dumps({k: v for k, v in summary.items() if k not in ("parameters", "calibration", "engine_wall_s")},
-                     indent=2, default=float))
-    print("outputs in", out)
+    summary, end = dem.runToDisplacement(pair, out, "load", o["endDisplacement_mm"] * 1e-3, o["velocity_m_s"],
+                                         o["rampTime_ms"] * 1e-3, o["dtFraction"], title=title, sign=1.0, band=experiment(),
+                                         extra=dict(parameters=o, quick=quick), cpu0=cpu0,
+                                         checkpoints=os.path.join(out, "checkpoints"), checkpointEvery=every,
+                                         resumed=bool(resume))
     finish(end, out)
     return summary
 

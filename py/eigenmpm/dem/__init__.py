@@ -26,12 +26,12 @@ By concern:
 """
 from .calibration import ALPHA_MAX, NU_FIT, calibrate, calibrateMeasured, measure, modulusFactor, stiffnessRatio
 from .labtests import uniaxialTension
-from .pair import DemMpmPair, runToDisplacement
+from .pair import DemMpmPair, resumePair, runToDisplacement
 from .reports import crackPatterns, report, smoothed
 from .specimen import (HCP_CONTACTS, HCP_FRACTION, LAYER, MODELS, DemBC, DemSpecimen, cpmBondEnergy, hcpCenters,
                        layersFor)
 
 __all__ = ["ALPHA_MAX", "MODELS", "NU_FIT", "calibrate", "calibrateMeasured", "measure", "modulusFactor",
-           "stiffnessRatio", "uniaxialTension", "DemMpmPair", "runToDisplacement", "crackPatterns", "report",
+           "stiffnessRatio", "uniaxialTension", "DemMpmPair", "resumePair", "runToDisplacement", "crackPatterns", "report",
            "smoothed", "HCP_CONTACTS", "HCP_FRACTION", "LAYER", "DemBC", "DemSpecimen", "cpmBondEnergy",
            "hcpCenters", "layersFor"]

@@ -256,29 +256,41 @@ def _distanceToPolyline(p, v, caps=True):
        Param("cpu0", None, "s", "time.process_time() at the start of the script, for cpu_time_s", kind="float",
              bounds="[0, inf)"),
        SIGN, BAND, COMPONENT,
-       Param("records", 1000, "", "about how many times both models are recorded", bounds="[1, inf)"))
+       Param("records", 1000, "", "about how many times both models are recorded", bounds="[1, inf)"),
+       Param("checkpoints", None, "", "folder of the checkpoints (eigenmpm.Checkpoint, doc/restart.md); "
+                                      "default: none are saved", kind="str"),
+       Param("checkpointEvery", 0, "iterations", "period of the checkpoints; 0: none", bounds="[0, inf)"),
+       Param("resumed", False, "", "the pair and its scene come from resumePair(): continue its run "
+                                   "(the engines and O.dt as checkpointed)"))
 def runToDisplacement(pair, out, load, displacement, velocity, rampTime, dtFraction, title, extra, cpu0, sign,
-                      band, component, records):
+                      band, component, records, checkpoints, checkpointEvery, resumed):
     """Runs the pair until the load point has moved by `displacement` (m) under `velocity`
     (m/s) reached over the ramp `rampTime` (s) (paper Eq 34), with O.dt = dtFraction x the smaller
     critical step, recording both models about `records` times and reporting progress; a run the
     solver stops with an error, or that SIGINT/SIGTERM interrupts, keeps what it computed
-    (eigenmpm.cli.runSteps). Then report() and a print of the main numbers: returns the summary,
+    (eigenmpm.cli.runSteps). With checkpointEvery > 0 a Checkpoint engine, first in O.engines,
+    saves the scene into `checkpoints`; with resumed, the run of a pair from resumePair()
+    continues to the same end. Then report() and a print of the main numbers: returns the summary,
     with `cpu_time_s` since `cpu0` (time.process_time()) when given, and the run's
     eigenmpm.cli.RunEnd (for eigenmpm.cli.finish)."""
     from yade import O
+    from ..checkpoint import Checkpoint
     from ..cli import runSteps
     from ..engines import callEvery
     from ..recorders import Progress
-    dt = pair.setTimeStep(dtFraction)
+    dt = O.dt if resumed else pair.setTimeStep(dtFraction)
     steps = int(round(rampTimeTo(displacement, velocity, rampTime) / dt))
-    O.engines = pair.engines() + [callEvery(pair.record, iterPeriod=max(1, steps // records), label="record"),
-                                  Progress(endIter=steps, realPeriod=30)]
+    if not resumed:
+        O.engines = pair.engines() + [callEvery(pair.record, iterPeriod=max(1, steps // records), label="record"),
+                                      Progress(endIter=steps, realPeriod=30)]
+        if checkpointEvery:
+            O.engines = [Checkpoint(directory=checkpoints, iterPeriod=checkpointEvery)] + list(O.engines)
     dtDem, dtMpm = pair.criticalTimeSteps()
     print(f"MPM {pair.mpm.solver.numPoints} points, DEM {len(pair.dem.ids)} spheres ({pair.layers} layers), "
-          f"dt {dt:.3g} s (critical DEM {dtDem:.3g}, MPM {dtMpm:.3g}), {steps} steps", flush=True)
+          f"dt {dt:.3g} s (critical DEM {dtDem:.3g}, MPM {dtMpm:.3g}), {steps} steps from iteration {O.iter}",
+          flush=True)
     start = time.time()
-    end = runSteps(steps)
+    end = runSteps(steps - O.iter)
     wall = time.time() - start
     info = dict(extra or {}, **end.summary(), imposed_displacement_m=displacement)
     summary = reports.report(pair, out, load, component=component, title=title, wall=wall, sign=sign, band=band,
@@ -290,3 +302,21 @@ def runToDisplacement(pair, out, load, displacement, velocity, rampTime, dtFract
     print(json.dumps({k: summary.get(k) for k in keys}, indent=2, default=float))
     print("outputs in", out)
     return summary, end
+
+
+def resumePair(directory):
+    """The DemMpmPair of the newest checkpoint in `directory` (runToDisplacement's run), its scene
+    loaded (doc/restart.md): the owner of the `record` runner, restored with both models' records.
+    The checkpoint keeps copies of the DEM specimen's YADE engines and functors with it; they are
+    pointed back at the loaded scene's (JCFpm's crack energies are read from its law)."""
+    from yade import O
+    from ..checkpoint import resume
+    resume(directory)
+    (pair,) = [e.function.__self__ for e in O.engines if e.label == "record"]
+    d, engines = pair.dem, {e.label: e for e in O.engines}
+    d.engineList = [engines[f"{d.tag}_{n}"] for n in ("forces", "collider", "interactions", "newton")]
+    d.bo1 = engines[f"{d.tag}_collider"].boundDispatcher.functors[0]
+    loop = engines[f"{d.tag}_interactions"]
+    d.ig2, d.law = loop.geomDispatcher.functors[0], loop.lawDispatcher.functors[0]
+    O.timingEnabled = True  # the engine times of the summary
+    return pair
