@@ -33,6 +33,20 @@ inline Eigen::Vector3d singularStress(CrackMode mode, double theta)
     return f * Eigen::Vector3d(-s * (2 + c * c3), s * c * c3, c * (1 - s * s3));
 }
 
+/// The strain of the in-plane stress s = (xx, yy, xy) for material m: plane stress in 2D when m is,
+/// else plane strain (sigma_zz = nu (sxx + syy); the 3D strain's out-of-plane parts are 0).
+template <int D> Mat<D> strainOf(const Eigen::Vector3d& s, const ElasticMaterial& m)
+{
+    const double E = m.E, nu = m.nu;
+    const double szz = D == 2 && m.planeStress ? 0.0 : nu * (s[0] + s[1]);
+    const double tr = s[0] + s[1] + szz;
+    Mat<D> eps = Mat<D>::Zero();
+    eps(0, 0) = ((1 + nu) * s[0] - nu * tr) / E;
+    eps(1, 1) = ((1 + nu) * s[1] - nu * tr) / E;
+    eps(0, 1) = eps(1, 0) = (1 + nu) * s[2] / E;
+    return eps;
+}
+
 /// Length of the ray from the tip at angle theta inside the circle of radius a centred at (d, 0).
 inline double chordFromTip(double theta, double d, double a)
 {
@@ -48,9 +62,7 @@ inline double chordFromTip(double theta, double d, double a)
 /// for the mixed field K_I = cos(mixity), K_II = sin(mixity) (G = (K_I^2 + K_II^2) / E' = 1 / E').
 template <int D> double initiationRatioMixed(const ElasticMaterial& m, double mixity, double offset = 0.0)
 {
-    const bool planeStress = D == 2 && m.planeStress;
-    const double E = m.E, nu = m.nu;
-    const double Eprime = planeStress ? E : E / (1.0 - nu * nu);
+    const double Eprime = D == 2 && m.planeStress ? m.E : m.E / (1.0 - m.nu * m.nu);
     // Phi(theta) on a midpoint rule (Phi is continuous; its slope jumps where the split's case
     // changes, so the rule converges as 1/n^2).
     const int nTheta = 4096;
@@ -59,13 +71,7 @@ template <int D> double initiationRatioMixed(const ElasticMaterial& m, double mi
         theta[i] = -M_PI + (i + 0.5) * 2.0 * M_PI / nTheta;
         const Eigen::Vector3d sg = std::cos(mixity) * singularStress(CrackMode::I, theta[i]) +
                                    std::sin(mixity) * singularStress(CrackMode::II, theta[i]);
-        const double szz = planeStress ? 0.0 : nu * (sg[0] + sg[1]);
-        const double tr = sg[0] + sg[1] + szz;
-        Mat<D> eps = Mat<D>::Zero();
-        eps(0, 0) = ((1 + nu) * sg[0] - nu * tr) / E;
-        eps(1, 1) = ((1 + nu) * sg[1] - nu * tr) / E;
-        eps(0, 1) = eps(1, 0) = (1 + nu) * sg[2] / E;
-        phi[i] = lawResponse<D>(eps, m).psiPlus;
+        phi[i] = lawResponse<D>(strainOf<D>(sg, m), m).psiPlus;
     }
     const double dTheta = 2.0 * M_PI / nTheta;
     const double d = offset;  // kappa = 1

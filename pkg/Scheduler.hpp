@@ -61,12 +61,9 @@ public:
     /// two colours of strips, each strip in slot order.
     template <class F> void scatter(int nThreads, F&& f) const
     {
-        const int numStrips = static_cast<int>(stripStart_.size()) - 1;
-        for (int colour = 0; colour < 2; ++colour) {
-#pragma omp parallel for schedule(dynamic, 1) num_threads(nThreads)
-            for (int s = colour; s < numStrips; s += 2)
-                for (int k = stripStart_[s]; k < stripStart_[s + 1]; ++k) f(k);
-        }
+        scatterStrips(nThreads, [&](int begin, int end) {
+            for (int k = begin; k < end; ++k) f(k);
+        });
     }
 
     /// scatter in runs: calls f(begin, end) for consecutive ranges of at most `run` slots of one
@@ -76,12 +73,19 @@ public:
     /// following each other; the order of the contributions to each node is that of scatter.
     template <class F> void scatterRuns(int nThreads, int run, F&& f) const
     {
+        scatterStrips(nThreads, [&](int begin, int end) {
+            for (int k = begin; k < end; k += run) f(k, std::min(k + run, end));
+        });
+    }
+
+    /// The strips of scatter: calls f(begin, end) with the slot range of every strip, two colours
+    /// of strips one after the other, the strips of a colour on the workers.
+    template <class F> void scatterStrips(int nThreads, F&& f) const
+    {
         const int numStrips = static_cast<int>(stripStart_.size()) - 1;
         for (int colour = 0; colour < 2; ++colour) {
 #pragma omp parallel for schedule(dynamic, 1) num_threads(nThreads)
-            for (int s = colour; s < numStrips; s += 2)
-                for (int k = stripStart_[s]; k < stripStart_[s + 1]; k += run)
-                    f(k, std::min(k + run, stripStart_[s + 1]));
+            for (int s = colour; s < numStrips; s += 2) f(stripStart_[s], stripStart_[s + 1]);
         }
     }
 

@@ -74,10 +74,7 @@ double latticeOverContinuum(double kappaOverSpacing, double offsetInSpacings)
             P.add(x, emp::Vec<2>::Zero(), 1.0, 1.0, 0);
             const double rho = x.norm(), theta = std::atan2(x[1], x[0]);
             const Eigen::Vector3d sg = emp::singularStress(CrackMode::I, theta) / std::sqrt(rho);
-            const double nu = m.nu, E = m.E, tr = (1 + nu) * (sg[0] + sg[1]);
-            emp::Mat<2> eps;
-            eps << ((1 + nu) * sg[0] - nu * tr) / E, (1 + nu) * sg[2] / E, (1 + nu) * sg[2] / E,
-                ((1 + nu) * sg[1] - nu * tr) / E;
+            const emp::Mat<2> eps = emp::strainOf<2>(sg, m);
             P.history.back() = emp::lawResponse<2>(eps, m).psiPlus;
             if (i == static_cast<int>(offsetInSpacings) && j == 0) probe = static_cast<int>(P.size()) - 1;
         }
