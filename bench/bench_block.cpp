@@ -13,6 +13,7 @@
 //
 //   bench_block [--sizes 1e5,1e6] [--threads 1,2] [--min-time 3] [--warmup 3]
 //               [--cases gimp2,linear2,gimp3] [--size3d 1e5] [--steps N] [--amp 0.01] [--quick]
+//               [--transfer FLIP|APIC] [--stress-update smallStrain|corotational]
 //
 // --amp A sets the initial velocity amplitude to A times the wave speed (strains of order A).
 // With the default 1e-2 the points leave their lattice sites within a few steps; with 1e-5
@@ -54,6 +55,8 @@ struct Options {
     int warmup = 3;
     long steps = 0;  ///< > 0: exactly this many timed steps (for comparing checksums between builds)
     double amp = 0.01;  ///< velocity amplitude / wave speed (about the strain amplitude)
+    emp::Transfer transfer = emp::Transfer::flip;
+    emp::StressUpdate stressUpdate = emp::StressUpdate::smallStrain;
 };
 
 struct Result {
@@ -113,6 +116,13 @@ Options parse(int argc, char** argv)
         else if (a == "--amp") o.amp = std::stod(next());
         else if (a == "--cases") o.cases = splitNames(next());
         else if (a == "--size3d") o.size3d = std::stod(next());
+        else if (a == "--transfer") {
+            o.transfer = emp::transferOf(next());
+            if (o.transfer == emp::Transfer::unset) usage("--transfer takes FLIP or APIC");
+        } else if (a == "--stress-update") {
+            o.stressUpdate = emp::stressUpdateOf(next());
+            if (o.stressUpdate == emp::StressUpdate::unset) usage("--stress-update takes smallStrain or corotational");
+        }
         else if (a == "--quick") {
             o.sizes = {2e4};
             o.size3d = 2e4;
@@ -147,7 +157,7 @@ template <int D> std::uint64_t checksum(const emp::MaterialPoints<D>& P)
 }
 
 /// Builds the block: n[d] points per direction on the h/ppc lattice, bottom nodes fixed.
-template <int D, class K> emp::Solver<D, K> makeBlock(const std::array<int, D>& n, double ampFraction)
+template <int D, class K> emp::Solver<D, K> makeBlock(const std::array<int, D>& n, double ampFraction, const Options& o)
 {
     const double h = 0.01, E = 1e7, nu = 0.3, rho = 1000.0;
     const int ppc = 2;
@@ -157,6 +167,8 @@ template <int D, class K> emp::Solver<D, K> makeBlock(const std::array<int, D>& 
     s.gravity.setZero();
     s.h = h;
     s.ppc = ppc;
+    s.transfer = o.transfer;
+    s.stressUpdate = o.stressUpdate;
     emp::Solver<D, K> solver(s);
     const int mat = solver.addMaterial(E, nu, rho, false, emp::lawIndex("spectral"));
     const double dx = h / ppc, vol = std::pow(dx, D);
@@ -225,7 +237,7 @@ Result runOnce(const std::string& name, const std::array<int, D>& n, int threads
                long minSteps, long checkAt)
 {
     const double rss0 = statusBytes("VmRSS:");
-    auto solver = makeBlock<D, K>(n, o.amp);
+    auto solver = makeBlock<D, K>(n, o.amp, o);
     const double dt = 0.5 * solver.criticalTimeStep();
     for (int i = 0; i < o.warmup; ++i) solver.step(dt, threads);
     Result r;

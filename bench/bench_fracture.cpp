@@ -92,6 +92,8 @@ Plate plate(double h, bool crack)
     s.massCutoff = 1e-14;
     s.padding = 3;
     s.gravity.setZero();
+    s.transfer = emp::Transfer::flip;
+    s.stressUpdate = emp::StressUpdate::smallStrain;
     s.h = h;
     s.ppc = 2;
     Plate p(s);
@@ -160,6 +162,8 @@ int main(int argc, char** argv)
         s.massCutoff = 1e-14;
         s.padding = 3;
         s.gravity.setZero();
+        s.transfer = emp::Transfer::flip;
+        s.stressUpdate = emp::StressUpdate::smallStrain;
         s.h = 1e-3;
         Plate a(s), b(s);
         for (Plate* p : {&a, &b}) {

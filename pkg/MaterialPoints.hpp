@@ -1,6 +1,7 @@
 // Material points as a struct of arrays: one contiguous array per quantity, indexed by point id.
 #pragma once
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "ElasticMaterial.hpp"
@@ -19,6 +20,12 @@ template <int D> struct MaterialPoints {
     std::vector<double> history;  ///< H = max psi+ over time (Eq 22)
     std::vector<double> damage;   ///< c: 1 intact, 0 eroded (g(c) = c)
     std::vector<std::int32_t> material;
+    /// APIC's affine velocity C_p (Kinematics.hpp); empty unless `affine` is on.
+    std::vector<Mat<D>> affineVelocity;
+    /// Deformation gradient F of the co-rotational update (Kinematics.hpp); empty unless
+    /// `deformation` is on. `strain` then holds the co-rotated strain U - I.
+    std::vector<Mat<D>> deformationGradient;
+    bool affine = false, deformation = false;  ///< which optional arrays the points carry
 
     std::size_t size() const { return x.size(); }
 
@@ -37,6 +44,16 @@ template <int D> struct MaterialPoints {
         f("history", history);
         f("damage", damage);
         f("material", material);
+        f("affineVelocity", affineVelocity);
+        f("deformationGradient", deformationGradient);
+    }
+
+    /// The length an array must have: every point's, or 0 for an optional one that is off.
+    std::size_t expectedLength(const std::string& name) const
+    {
+        if (name == "affineVelocity" && !affine) return 0;
+        if (name == "deformationGradient" && !deformation) return 0;
+        return size();
     }
 
     void add(const Vec<D>& pos, const Vec<D>& vel, double m, double vol, int mat)
@@ -52,6 +69,8 @@ template <int D> struct MaterialPoints {
         history.push_back(0.0);
         damage.push_back(1.0);
         material.push_back(mat);
+        if (affine) affineVelocity.push_back(Mat<D>::Zero());
+        if (deformation) deformationGradient.push_back(Mat<D>::Identity());
     }
 };
 

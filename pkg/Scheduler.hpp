@@ -89,21 +89,24 @@ public:
         }
     }
 
-    /// Calls f(slot, acc) for every slot where f writes only its own point, with a per-worker
-    /// accumulator acc (initialised to init) that is then folded by combine(acc, workerAcc).
-    /// combine must be order-independent (min, max) for results independent of the thread count.
+    /// Calls f(slot, acc) for every slot where f writes only its own point, with an accumulator
+    /// acc (initialised to init) per block of `gatherBlock` consecutive slots; the blocks'
+    /// accumulators are then folded by combine(total, blockAcc) in block order. The blocks do not
+    /// depend on the thread count, so neither does the result, whatever combine does (sums too).
     template <class Acc, class F, class C> Acc gather(int nThreads, Acc init, F&& f, C&& combine) const
     {
-        const int np = size();
-        Acc total = init;
-#pragma omp parallel num_threads(nThreads)
-        {
+        constexpr int gatherBlock = 2048;
+        const int np = size(), nb = (np + gatherBlock - 1) / gatherBlock;
+        std::vector<Acc> part(nb, init);
+#pragma omp parallel for schedule(static) num_threads(nThreads)
+        for (int b = 0; b < nb; ++b) {
             Acc acc = init;
-#pragma omp for schedule(static) nowait
-            for (int k = 0; k < np; ++k) f(k, acc);
-#pragma omp critical(emp_scheduler_gather)
-            combine(total, acc);
+            const int end = std::min(np, (b + 1) * gatherBlock);
+            for (int k = b * gatherBlock; k < end; ++k) f(k, acc);
+            part[b] = acc;
         }
+        Acc total = init;
+        for (const Acc& a : part) combine(total, a);
         return total;
     }
 

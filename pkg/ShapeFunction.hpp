@@ -10,6 +10,8 @@
 //   gradientJumpsAtNodes  whether grad N jumps at a node (a point exactly on a node then sees a
 //                         nonzero gradient on a neighbour it has no weight on)
 //   name                  the user's name of the shape function (MpmEngine(shape=...))
+//   affineTransfer        whether the APIC transfer works with it: its moment matrix D_p =
+//                         sum N (x_I - x_p)(x_I - x_p)^T stays invertible (Kinematics.hpp)
 // To add a kernel: copy one of these structs into a header of its own, give it a new name and
 // add it to EMP_SOLVER_CONFIGURATIONS in Configurations.hpp.
 #pragma once
@@ -30,6 +32,8 @@ struct LinearKernel {
     static constexpr int crackRings = 0;
     static constexpr bool gradientJumpsAtNodes = true;
     static constexpr const char* name = "linear";
+    /// D_p vanishes in a direction where the point meets a node line: C_p = B_p D_p^-1 blows up.
+    static constexpr bool affineTransfer = false;
     /// Weights w and derivatives dw of the S nodes starting at the returned base node index.
     static inline int base(double xi) { return static_cast<int>(std::floor(xi)); }
     static inline int eval(double xi, double /*lp*/, double* w, double* dw)
@@ -57,6 +61,8 @@ struct GimpKernel {
     static constexpr int crackRings = 1;  ///< the support reaches one cell beyond the point's own
     static constexpr bool gradientJumpsAtNodes = false;  ///< C1: grad N vanishes with N
     static constexpr const char* name = "uGIMP";
+    /// D_p >= lp^2 / 3 in every direction (the particle's own width).
+    static constexpr bool affineTransfer = true;
     static inline double s(double r, double lp, double& ds)
     {
         const double a = std::fabs(r);

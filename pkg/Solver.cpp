@@ -50,7 +50,8 @@ template <int D, class K> void Solver<D, K>::step(double dt, int nThreads)
     tractionForces();                      // (5) traction, Eq 28
     applyConditionsAfterForces(dt);        //     conditions on the forces, reactions
     updateGrid(dt, nThreads);              // (5) nodal momentum, Eq 29
-    gridToParticle(dt, nThreads);          // (6) FLIP velocity and position, Eqs 30-31
+    accumulateExternalWork(dt);            //     work of tractions and gravity (diagnostics)
+    gridToParticle(dt, nThreads);          // (6) FLIP or APIC velocity and position, Eqs 30-31
     transportCracks(dt);                   //     crack vertices move with the material
 }
 
@@ -128,7 +129,7 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
     // here once per point and kept for the stress/force pass and G2P.
     auto& P = points_;
     auto& g = grid_;
-    const bool cracks = !phantom_.empty();
+    const bool cracks = !phantom_.empty(), apic = settings_.transfer == Transfer::apic;
     const auto& order = schedule_.order();
     schedule_.scatter(nThreads, [&](int k) {
         const int p = order[k];
@@ -137,9 +138,20 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
         if (cracks && st.overlaps(markedLo_, markedHi_)) st.mapAcrossCracks(P.x[p], g, phantom_, k);
         const double mp = P.mass[p];
         const Vec<D> mv = mp * P.v[p];
-        st.forEach(g, [&](int I, double N, const Vec<D>&) {
+        if (!apic) {
+            st.forEach(g, [&](int I, double N, const Vec<D>&) {
+                g.mass[I] += N * mp;
+                g.momentum[I] += N * mv;
+            });
+            return;
+        }
+        // APIC: m_I v_I += N m_p (v_p + C_p (x_I - x_p)) with C_p = B_p D_p^-1 at this position.
+        double o[D][S];
+        st.offsets(P.x[p], g, o);
+        const Mat<D> mC = mp * affineOf(P.affineVelocity[p], st.momentDiagonal(o));
+        st.forEachWithOffset(g, o, [&](int I, double N, const Vec<D>&, const Vec<D>& dx) {
             g.mass[I] += N * mp;
-            g.momentum[I] += N * mv;
+            g.momentum[I] += N * (mv + mC * dx);
         });
     });
 }
@@ -183,6 +195,15 @@ template <int D, class K> EMP_ALWAYS_INLINE void Solver<D, K>::updateStress(int 
     } else {
         st.forEach(g, [&](int I, double, const Vec<D>& grad) { L.noalias() += g.velocity[I] * grad.transpose(); });
     }
+    if (settings_.stressUpdate == StressUpdate::corotational) {
+        // L is the gradient at the points' new positions of the velocity that brought them
+        // there, so the motion's gradient is (I - dt L)^-1 (Kinematics.hpp): exact for any field
+        // the transfer carries, a rigid rotation included.
+        Mat<D>& F = P.deformationGradient[p];
+        F = (Mat<D>::Identity() - dt * L).inverse() * F;
+        corotationalStress(p);
+        return;
+    }
     Mat<D>& eps = P.strain[p];
     eps += (0.5 * dt) * (L + L.transpose());
     // The material's law (a compile-time policy, one switch per point): sigma = c sigma+ + sigma-
@@ -197,14 +218,47 @@ template <int D, class K> EMP_ALWAYS_INLINE void Solver<D, K>::updateStress(int 
     });
 }
 
+template <int D, class K> EMP_ALWAYS_INLINE void Solver<D, K>::corotationalStress(int p)
+{
+    // F = R U; the law and its split on eps = U - I (Eq 7, 3-4, 22 unchanged in the co-rotated
+    // frame); the stress rotated back (Kinematics.hpp). A degenerate F (inverted or collapsed
+    // point) gives a NaN stress, which the step's check reports with the point's id.
+    auto& P = points_;
+    Mat<D> R, U;
+    if (!polarDecomposition(P.deformationGradient[p], R, U)) {
+        P.stress[p].setConstant(std::numeric_limits<double>::quiet_NaN());
+        return;
+    }
+    const Mat<D> eps = U - Mat<D>::Identity();
+    P.strain[p] = eps;
+    const ElasticMaterial& m = materials_[P.material[p]];
+    withLaw(m.law, [&](auto law) {
+        const LawResponse<D> r = decltype(law)::template response<D>(eps, m);
+        P.stress[p] = cauchyStress<D>(R, U, P.damage[p] * r.sigmaPlus + r.sigmaMinus);
+        P.psiPlus[p] = r.psiPlus;
+        P.psiMinus[p] = r.psiMinus;
+        P.history[p] = std::max(P.history[p], r.psiPlus);
+    });
+}
+
+template <int D, class K> Mat<D> Solver<D, K>::spatialStress(int p, const Mat<D>& s) const
+{
+    Mat<D> R, U;
+    if (!polarDecomposition(points_.deformationGradient[p], R, U)) return Mat<D>::Constant(std::numeric_limits<double>::quiet_NaN());
+    return cauchyStress<D>(R, U, s);
+}
+
 template <int D, class K>
-template <bool withGravity>
+template <bool withGravity, bool corotational>
 EMP_ALWAYS_INLINE void Solver<D, K>::scatterInternalForce(int p, const St& st, const Vec<D>& gravity)
 {
     // f_I += N_I m_p b - V_p sigma_p grad N_I (Eqs 13-14). Without gravity the body force term
-    // is left out (the same sums: f + (0 - x) is f - x in floating point).
+    // is left out (the same sums: f + (0 - x) is f - x in floating point). The co-rotational
+    // update's volume is the current one, J V_p (V_p sigma = V_0 tau, Kinematics.hpp).
     auto& g = grid_;
-    const Mat<D> vs = points_.volume[p] * points_.stress[p];
+    const double volume = corotational ? points_.volume[p] * points_.deformationGradient[p].determinant()
+                                       : points_.volume[p];
+    const Mat<D> vs = volume * points_.stress[p];
     if constexpr (withGravity) {
         const Vec<D> fb = points_.mass[p] * gravity;
         st.forEach(g, [&](int I, double N, const Vec<D>& grad) { g.force[I] += N * fb - vs * grad; });
@@ -220,17 +274,19 @@ template <int D, class K> void Solver<D, K>::stressAndInternalForce(double dt, i
     constexpr int stressRun = 16;
     const Vec<D> gravity = settings_.gravity.head<D>();
     const auto& order = schedule_.order();
-    const auto pass = [&](auto withGravity) {
+    const auto pass = [&](auto withGravity, auto corotational) {
         schedule_.scatterRuns(nThreads, stressRun, [&](int begin, int end) {
             for (int k = begin; k < end; ++k) updateStress(order[k], stencil_[k], dt);
             for (int k = begin; k < end; ++k)
-                scatterInternalForce<decltype(withGravity)::value>(order[k], stencil_[k], gravity);
+                scatterInternalForce<decltype(withGravity)::value, decltype(corotational)::value>(
+                    order[k], stencil_[k], gravity);
         });
     };
+    const bool corotational = settings_.stressUpdate == StressUpdate::corotational;
     if (gravity.isZero(0.0))
-        pass(std::false_type{});
+        corotational ? pass(std::false_type{}, std::true_type{}) : pass(std::false_type{}, std::false_type{});
     else
-        pass(std::true_type{});
+        corotational ? pass(std::true_type{}, std::true_type{}) : pass(std::true_type{}, std::false_type{});
 }
 
 template <int D, class K> typename Solver<D, K>::St Solver<D, K>::stencilOf(int p)
@@ -251,10 +307,16 @@ template <int D, class K> void Solver<D, K>::erode(double dt, int nThreads)
     const auto& eroded = erosion_->lastEroded();
     const auto& before = erosion_->stressBeforeErosion();
     auto& g = grid_;
+    const bool corotational = settings_.stressUpdate == StressUpdate::corotational;
     for (std::size_t e = 0; e < eroded.size(); ++e) {
         const int p = eroded[e];
         const St st = stencilOf(p);
-        const Mat<D> dvs = points_.volume[p] * (points_.stress[p] - before[e]);
+        double volume = points_.volume[p];
+        if (corotational) {  // erosion set sigma- of the co-rotated strain: rotate it back
+            points_.stress[p] = spatialStress(p, points_.stress[p]);
+            volume *= points_.deformationGradient[p].determinant();
+        }
+        const Mat<D> dvs = volume * (points_.stress[p] - before[e]);
         st.forEach(g, [&](int I, double, const Vec<D>& grad) { g.force[I] -= dvs * grad; });
     }
 }
@@ -291,6 +353,28 @@ template <int D, class K> void Solver<D, K>::updateGrid(double dt, int nThreads)
     });
 }
 
+template <int D, class K> void Solver<D, K>::accumulateExternalWork(double dt)
+{
+    // f . (v^{n-1/2} + v^{n+1/2}) dt / 2 at the nodes, with v^{n-1/2} = v^{n+1/2} - dt a (the grid
+    // holds v^{n+1/2} and a now); the velocity conditions add theirs in afterForces. Serial and
+    // in a fixed order; only tractions and a non-zero gravity cost anything.
+    const auto& g = grid_;
+    for (const auto& tc : tractions_) {
+        const Vec<D> t = (rampFactor(time_, tc.rampTime) * tc.traction).head<D>();
+        for (int p : tc.points) {
+            const St st = stencilOf(p);
+            const Vec<D> f = t * (points_.volume[p] / tc.layer);
+            st.forEach(g, [&](int I, double N, const Vec<D>&) {
+                tractionWork_ += dt * N * f.dot(g.velocity[I] - 0.5 * dt * g.force[I]);
+            });
+        }
+    }
+    const Vec<D> gravity = settings_.gravity.head<D>();
+    if (!gravity.isZero(0.0))
+        for (int I = 0; I < g.totalNodes(); ++I)
+            gravityWork_ += dt * g.mass[I] * gravity.dot(g.velocity[I] - 0.5 * dt * g.force[I]);
+}
+
 template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThreads)
 {
     // FLIP velocity update (Eq 30) and position from nodal momentum (Eq 31). Each point writes
@@ -301,34 +385,60 @@ template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThre
     struct Check {
         Vec<D> lo = Vec<D>::Constant(std::numeric_limits<double>::infinity());
         Vec<D> hi = Vec<D>::Constant(-std::numeric_limits<double>::infinity());
-        double sum = 0, vmax2 = 0;
+        double sum = 0, vmax2 = 0, kinetic = 0;
     };
     auto& P = points_;
     const auto& g = grid_;
     const auto& order = schedule_.order();
-    const Check c = schedule_.gather(
-        nThreads, Check{},
-        [&](int k, Check& acc) {
+    // APIC: v_p = sum N v_I and B_p = sum N v_I (x_I - x_p)^T (Kinematics.hpp).
+    const auto body = [&](auto apic) {
+        return [&](int k, Check& acc) {
             const int p = order[k];
-            Vec<D> a = Vec<D>::Zero(), vg = Vec<D>::Zero();
-            stencil_[k].forEach(g, [&](int I, double N, const Vec<D>&) {
-                a += N * g.force[I];
-                vg += N * g.velocity[I];
-            });
-            const Vec<D> v = P.v[p] + dt * a, x = P.x[p] + dt * vg;
+            const St& st = stencil_[k];
+            Vec<D> v, vg = Vec<D>::Zero();
+            if constexpr (decltype(apic)::value) {
+                double o[D][S];
+                st.offsets(P.x[p], g, o);
+                const Vec<D> dm = st.momentDiagonal(o);
+                Mat<D> B = Mat<D>::Zero();
+                st.forEachWithOffset(g, o, [&](int I, double N, const Vec<D>&, const Vec<D>& dx) {
+                    vg += N * g.velocity[I];
+                    B.noalias() += (N * g.velocity[I]) * dx.transpose();
+                });
+                v = vg;
+                const Mat<D> C = affineOf(B, dm), Cold = affineOf(P.affineVelocity[p], dm);
+                double affine = 0;  // m tr(C_old D C^T) / 2 at this position
+                for (int d = 0; d < D; ++d) affine += dm[d] * Cold.col(d).dot(C.col(d));
+                acc.kinetic += 0.5 * P.mass[p] * (P.v[p].dot(v) + affine);
+                P.affineVelocity[p] = B;
+            } else {
+                Vec<D> a = Vec<D>::Zero();
+                st.forEach(g, [&](int I, double N, const Vec<D>&) {
+                    a += N * g.force[I];
+                    vg += N * g.velocity[I];
+                });
+                v = P.v[p] + dt * a;
+                acc.kinetic += 0.5 * P.mass[p] * P.v[p].dot(v);
+            }
+            const Vec<D> x = P.x[p] + dt * vg;
             P.v[p] = v;
             P.x[p] = x;
             acc.lo = acc.lo.cwiseMin(x);
             acc.hi = acc.hi.cwiseMax(x);
             acc.sum += v.sum() + x.sum() + P.stress[p].sum();
             acc.vmax2 = std::max(acc.vmax2, v.squaredNorm());
-        },
-        [](Check& total, const Check& part) {
-            total.lo = total.lo.cwiseMin(part.lo);
-            total.hi = total.hi.cwiseMax(part.hi);
-            total.sum += part.sum;
-            total.vmax2 = std::max(total.vmax2, part.vmax2);
-        });
+        };
+    };
+    const auto combine = [](Check& total, const Check& part) {
+        total.lo = total.lo.cwiseMin(part.lo);
+        total.hi = total.hi.cwiseMax(part.hi);
+        total.sum += part.sum;
+        total.vmax2 = std::max(total.vmax2, part.vmax2);
+        total.kinetic += part.kinetic;
+    };
+    const Check c = settings_.transfer == Transfer::apic ? schedule_.gather(nThreads, Check{}, body(std::true_type{}), combine)
+                                                         : schedule_.gather(nThreads, Check{}, body(std::false_type{}), combine);
+    kineticAtStep_ = c.kinetic;
     maxSpeed_ = std::sqrt(c.vmax2);
     time_ += dt;
     ++steps_;
@@ -381,7 +491,14 @@ template <int D, class K> Solver<D, K>::Solver(const SolverSettings& s) : settin
             s.massCutoff, "0 <= massCutoff < 1");
     require(s.padding >= 1, "padding (cells)", s.padding, "padding >= 1");
     require(s.gravity.allFinite(), "gravity (m/s2)", "non-finite or not set", "finite components");
+    require(s.transfer != Transfer::unset, "transfer", "not set", "'FLIP' or 'APIC'");
+    require(s.stressUpdate != StressUpdate::unset, "stressUpdate", "not set", "'smallStrain' or 'corotational'");
+    if (s.transfer == Transfer::apic && !K::affineTransfer)
+        require(false, "transfer", std::string("'APIC' with shape '") + K::name + "'",
+                "'FLIP' with this shape; APIC needs a shape whose moment matrix stays invertible (uGIMP)");
     lp_ = 0.5 / s.ppc;
+    points_.affine = s.transfer == Transfer::apic;
+    points_.deformation = s.stressUpdate == StressUpdate::corotational;
 }
 
 template <int D, class K>
@@ -576,6 +693,63 @@ template <int D, class K> double Solver<D, K>::elasticEnergy() const
     for (std::size_t p = 0; p < points_.size(); ++p)
         e += points_.volume[p] * (points_.damage[p] * points_.psiPlus[p] + points_.psiMinus[p]);
     return e;
+}
+
+template <int D, class K> double Solver<D, K>::externalWork() const
+{
+    double w = tractionWork_ + gravityWork_;
+    for (const auto& c : velocityConditions_) w += c->work;
+    return w;
+}
+
+template <int D, class K> Eigen::Vector3d Solver<D, K>::linearMomentum() const
+{
+    Eigen::Vector3d m = Eigen::Vector3d::Zero();
+    for (std::size_t p = 0; p < points_.size(); ++p) m.head<D>() += points_.mass[p] * points_.v[p];
+    return m;
+}
+
+template <int D, class K> Eigen::Vector3d Solver<D, K>::angularMomentum() const
+{
+    Eigen::Vector3d l = Eigen::Vector3d::Zero();
+    const bool apic = settings_.transfer == Transfer::apic;
+    for (std::size_t p = 0; p < points_.size(); ++p) {
+        Eigen::Vector3d x = Eigen::Vector3d::Zero(), v = Eigen::Vector3d::Zero();
+        x.head<D>() = points_.x[p];
+        v.head<D>() = points_.v[p];
+        Eigen::Vector3d lp = x.cross(v);
+        if (apic) {  // m eps_abc B_cb
+            Eigen::Matrix3d B = Eigen::Matrix3d::Zero();
+            B.topLeftCorner<D, D>() = points_.affineVelocity[p];
+            lp += Eigen::Vector3d(B(2, 1) - B(1, 2), B(0, 2) - B(2, 0), B(1, 0) - B(0, 1));
+        }
+        l += points_.mass[p] * lp;
+    }
+    return l;
+}
+
+template <int D, class K> void Solver<D, K>::setVelocityGradient(int p, const Mat<D>& C)
+{
+    require(settings_.transfer == Transfer::apic, "velocity gradient", "given with the FLIP transfer",
+            "the APIC transfer (only it carries an affine velocity)");
+    require(p >= 0 && p < static_cast<int>(points_.size()), "point id", p, "0 <= id < " + std::to_string(points_.size()));
+    require(C.allFinite(), "velocity gradient (1/s)", "non-finite", "finite components");
+    initialize();
+    St st;
+    st.compute(points_.x[p], grid_, lp_);
+    double o[D][S];
+    st.offsets(points_.x[p], grid_, o);
+    points_.affineVelocity[p] = C * st.momentDiagonal(o).asDiagonal();
+}
+
+template <int D, class K> Mat<D> Solver<D, K>::velocityGradient(int p) const
+{
+    if (settings_.transfer != Transfer::apic || !initialized_) return Mat<D>::Zero();
+    St st;
+    st.compute(points_.x[p], grid_, lp_);
+    double o[D][S];
+    st.offsets(points_.x[p], grid_, o);
+    return affineOf(points_.affineVelocity[p], st.momentDiagonal(o));
 }
 
 #define EMP_INSTANTIATE(D, K) template class Solver<D, K>;

@@ -19,6 +19,7 @@
 #include "ElasticMaterial.hpp"
 #include "Grid.hpp"
 #include "GridCondition.hpp"
+#include "Kinematics.hpp"
 #include "MaterialPoints.hpp"
 #include "PhantomNodes.hpp"
 #include "Scheduler.hpp"
@@ -31,6 +32,7 @@ namespace emp {
 /// What an archive of Solver::saveState holds: its dimension and kernel, read from its header
 /// so that the caller can pick the solver class (the stream is left after the header).
 struct StateHeader {
+    int version;
     int dim;
     std::string kernel;
 };
@@ -44,6 +46,8 @@ struct SolverSettings {
     Eigen::Vector3d gravity = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());  ///< m/s2
     double massCutoff = std::numeric_limits<double>::quiet_NaN();  ///< nodes lighter than this fraction of the mean point mass are void
     int padding = 0;  ///< cells added around the points when the grid is sized automatically
+    Transfer transfer = Transfer::unset;              ///< FLIP (the paper's) or APIC (Kinematics.hpp)
+    StressUpdate stressUpdate = StressUpdate::unset;  ///< smallStrain (the paper's) or corotational
 };
 
 template <int D, class Kernel> class Solver {
@@ -83,6 +87,13 @@ public:
     const PhantomNodes<D>& phantomNodes() const { return phantom_; }
 
     // --- time stepping ------------------------------------------------------------------
+    /// APIC: sets point p's affine velocity (its velocity gradient, 1/s) for the next transfer,
+    /// e.g. the initial velocity field's gradient (builds the grid if needed). Throws
+    /// ParameterError with the FLIP transfer.
+    void setVelocityGradient(int p, const Mat<D>& C);
+    /// APIC: the affine velocity C_p = B_p D_p^-1 a point carries at its current position.
+    Mat<D> velocityGradient(int p) const;
+
     /// Largest stable dt: h / max over materials of (wave speed + current max point speed).
     double criticalTimeStep() const;
     /// One explicit step of length dt on nThreads OpenMP threads. Throws ParameterError when dt
@@ -102,8 +113,21 @@ public:
     static std::shared_ptr<Solver> loadState(std::istream& is);
 
     // --- diagnostics --------------------------------------------------------------------
-    double kineticEnergy() const;
-    double elasticEnergy() const;  ///< sum V_p (c psi+ + psi-) (Eq 32)
+    double kineticEnergy() const;  ///< sum m v^2 / 2 of the point velocities (v^{n+1/2} after a step)
+    double elasticEnergy() const;  ///< sum V_p (c psi+ + psi-) (Eq 32), at t^n of the last step
+    /// Kinetic energy at the time level of elasticEnergy (t^n of the last step): sum m_p
+    /// v^{n-1/2}.v^{n+1/2} / 2, plus APIC's affine part sum m_p tr(C_old D_p C_new^T) / 2; the
+    /// leapfrog's own energy, which a linear oscillator conserves exactly. 0 before a step.
+    double kineticEnergyAtStep() const { return kineticAtStep_; }
+    /// Work done on the points up to the last step by the velocity conditions (their reaction
+    /// forces), the tractions and gravity, J; each step adds f . (v^{n-1/2} + v^{n+1/2}) dt / 2 at
+    /// the nodes.
+    double externalWork() const;
+    /// Total linear momentum sum m_p v_p (3 components; z = 0 in 2D).
+    Eigen::Vector3d linearMomentum() const;
+    /// Total angular momentum about the origin: sum x_p x m_p v_p, plus APIC's affine part
+    /// m_p eps:(B_p^T) (Kinematics.hpp); in 2D only z is non-zero.
+    Eigen::Vector3d angularMomentum() const;
     Eigen::Vector3d reaction(int id) const { return velocityConditions_.at(id)->reaction; }
     double time() const { return time_; }
     void setTime(double t) { time_ = t; }
@@ -141,11 +165,17 @@ private:
     void applyConditionsAfterForces(double dt);
     void updateGrid(double dt, int nThreads);
     void gridToParticle(double dt, int nThreads);
+    void accumulateExternalWork(double dt);
     void transportCracks(double dt);
 
     // Per-point pieces of the fused stress/force pass.
     void updateStress(int p, const St& st, double dt);
-    template <bool withGravity> void scatterInternalForce(int p, const St& st, const Vec<D>& gravity);
+    /// The co-rotational update's stress of point p from its deformation gradient (Kinematics.hpp).
+    void corotationalStress(int p);
+    /// The Cauchy stress R s U R^T / J of a co-rotated stress s at point p's deformation gradient.
+    Mat<D> spatialStress(int p, const Mat<D>& s) const;
+    template <bool withGravity, bool corotational>
+    void scatterInternalForce(int p, const St& st, const Vec<D>& gravity);
     /// The stencil of one point computed on its own (serial stages: erosion, tractions).
     St stencilOf(int p);
 
@@ -166,6 +196,7 @@ private:
     Scheduler<D> schedule_;
     std::vector<St> stencil_;  ///< stencil_[k] is that of point schedule_.order()[k] in this step
     double time_ = 0, maxSpeed_ = 0;
+    double kineticAtStep_ = 0, tractionWork_ = 0, gravityWork_ = 0;
     std::int64_t steps_ = 0;
 };
 

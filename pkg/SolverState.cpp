@@ -10,7 +10,7 @@ namespace emp {
 
 namespace {
 const char* kFormat = "EigenMPM solver state";
-constexpr std::uint32_t kVersion = 1;
+constexpr std::uint32_t kVersion = 2;  // 2: transfer, stress update, energy diagnostics
 }  // namespace
 
 StateHeader readStateHeader(std::istream& is)
@@ -19,9 +19,11 @@ StateHeader readStateHeader(std::istream& is)
     const std::string format = r.string();
     if (format != kFormat) r.fail("no EigenMPM solver state (it starts with '" + format.substr(0, 40) + "')");
     const auto version = r.value<std::uint32_t>();
-    if (version != kVersion)
-        r.fail("format version " + std::to_string(version) + "; this EigenMPM reads version " + std::to_string(kVersion));
+    if (version < 1 || version > kVersion)
+        r.fail("format version " + std::to_string(version) + "; this EigenMPM reads versions 1 to " +
+               std::to_string(kVersion));
     StateHeader h;
+    h.version = static_cast<int>(version);
     h.dim = r.value<std::int32_t>();
     h.kernel = r.string();
     return h;
@@ -45,6 +47,8 @@ template <int D, class K> void Solver<D, K>::saveState(std::ostream& os) const
     w.value(settings_.gravity);
     w.value(settings_.massCutoff);
     w.value(settings_.padding);
+    w.string(name(settings_.transfer));
+    w.string(name(settings_.stressUpdate));
 
     w.string("solver");
     w.value(haveDomain_);
@@ -55,6 +59,9 @@ template <int D, class K> void Solver<D, K>::saveState(std::ostream& os) const
     w.value(time_);
     w.value(maxSpeed_);
     w.value(steps_);
+    w.value(kineticAtStep_);
+    w.value(tractionWork_);
+    w.value(gravityWork_);
     w.value(grid_.origin);
     w.value(grid_.n);
 
@@ -77,6 +84,7 @@ template <int D, class K> void Solver<D, K>::saveState(std::ostream& os) const
         w.value(c->velocity);
         w.value(c->rampTime);
         w.value(c->reaction);
+        w.value(c->work);
     }
 
     w.string("tractions");
@@ -116,6 +124,16 @@ template <int D, class K> std::shared_ptr<Solver<D, K>> Solver<D, K>::loadState(
     st.gravity = r.value<Eigen::Vector3d>();
     st.massCutoff = r.value<double>();
     st.padding = r.value<int>();
+    // Version 1 (before the options) had the paper's FLIP transfer and small-strain update.
+    st.transfer = Transfer::flip;
+    st.stressUpdate = StressUpdate::smallStrain;
+    if (h.version >= 2) {
+        const std::string transfer = r.string(), update = r.string();
+        st.transfer = transferOf(transfer);
+        st.stressUpdate = stressUpdateOf(update);
+        if (st.transfer == Transfer::unset || st.stressUpdate == StressUpdate::unset)
+            r.fail("the transfer '" + transfer + "' or stress update '" + update + "', which this EigenMPM does not have");
+    }
     auto s = std::make_shared<Solver<D, K>>(st);
 
     r.expect("solver");
@@ -127,6 +145,11 @@ template <int D, class K> std::shared_ptr<Solver<D, K>> Solver<D, K>::loadState(
     s->time_ = r.value<double>();
     s->maxSpeed_ = r.value<double>();
     s->steps_ = r.value<std::int64_t>();
+    if (h.version >= 2) {
+        s->kineticAtStep_ = r.value<double>();
+        s->tractionWork_ = r.value<double>();
+        s->gravityWork_ = r.value<double>();
+    }
     const auto origin = r.value<Vec<D>>();
     const auto n = r.value<std::array<int, D>>();
     if (initialized) {
@@ -144,9 +167,11 @@ template <int D, class K> std::shared_ptr<Solver<D, K>> Solver<D, K>::loadState(
 
     r.expect("points");
     s->points_.forEachArray([&](const char* name, auto& a) {
+        if (h.version < 2 && s->points_.expectedLength(name) == 0) return;  // (optional arrays came with 2)
         r.expect(name);
         r.array(a);
-        if (a.size() != s->points_.x.size()) r.fail(std::string("a point array '") + name + "' of another length");
+        if (a.size() != s->points_.expectedLength(name))
+            r.fail(std::string("a point array '") + name + "' of another length");
     });
 
     r.expect("conditions");
@@ -159,6 +184,7 @@ template <int D, class K> std::shared_ptr<Solver<D, K>> Solver<D, K>::loadState(
         c->velocity = r.value<Eigen::Vector3d>();
         c->rampTime = r.value<double>();
         c->reaction = r.value<Eigen::Vector3d>();
+        if (h.version >= 2) c->work = r.value<double>();
         s->velocityConditions_.push_back(c);
         s->conditions_.push_back(c);
     }

@@ -69,6 +69,41 @@ template <int D, class K> struct Stencil {
         return I;
     }
 
+    /// Offsets x_I - x_p (m) of the support nodes from the point at x, per direction: o[d][k]
+    /// for the node base[d] + k (a twin sits where its node is).
+    void offsets(const Vec<D>& x, const Grid<D>& g, double (*o)[S]) const
+    {
+        for (int d = 0; d < D; ++d)
+            for (int k = 0; k < S; ++k) o[d][k] = g.origin[d] + (base[d] + k) * g.h - x[d];
+    }
+
+    /// The diagonal of the moment matrix D_p = sum_I N_Ip (x_I - x_p)(x_I - x_p)^T (APIC), from
+    /// the offsets: a tensor-product kernel that reproduces linear fields has no off-diagonal
+    /// terms (the first moments vanish in every direction).
+    Vec<D> momentDiagonal(const double (*o)[S]) const
+    {
+        Vec<D> m;
+        for (int d = 0; d < D; ++d) {
+            m[d] = 0;
+            for (int k = 0; k < S; ++k) m[d] += w[d][k] * o[d][k] * o[d][k];
+        }
+        return m;
+    }
+
+    /// forEach with the offset x_I - x_p as a fourth argument: f(I, N, grad N, dx).
+    template <class F> EMP_ALWAYS_INLINE void forEachWithOffset(const Grid<D>& g, const double (*o)[S], F&& f) const
+    {
+        int c = 0;  // support node number, in forEach's order (x fastest)
+        forEach(g, [&](int I, double N, const Vec<D>& grad) {
+            Vec<D> dx;
+            dx[0] = o[0][c % S];
+            dx[1] = o[1][(c / S) % S];
+            if constexpr (D == 3) dx[2] = o[2][c / (S * S)];
+            f(I, N, grad, dx);
+            ++c;
+        });
+    }
+
     /// Calls f(node index, N, grad N) for every support node, in a fixed order.
     template <class F> EMP_ALWAYS_INLINE void forEach(const Grid<D>& g, F&& f) const
     {

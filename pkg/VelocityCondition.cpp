@@ -37,6 +37,9 @@ template <int D> void VelocityCondition<D>::afterForces(GridState<D>& s)
             g.force[I][d] = applied;
         }
     });
+    const Eigen::Vector3d before = value(std::max(s.time - s.dt, 0.0));
+    for (int d = 0; d < D; ++d)
+        if (mask & (1u << d)) work += s.dt * reaction[d] * 0.5 * (before[d] + vbar[d]);
 }
 
 template class VelocityCondition<2>;

@@ -21,6 +21,9 @@ public:
     double rampTime = 0;
     std::vector<int> active;  ///< nodes constrained in the current step
     Eigen::Vector3d reaction = Eigen::Vector3d::Zero();  ///< force the condition exerts, N
+    /// Work of the reaction on the body so far, J: each step reaction . (v^{n-1/2} + v^{n+1/2})
+    /// dt / 2 with the prescribed velocities at t^{n-1/2} and t^{n+1/2}.
+    double work = 0;
 
     /// The prescribed velocity at time t (the ramp of Eq 34 when rampTime > 0).
     Eigen::Vector3d value(double t) const { return rampFactor(t, rampTime) * velocity; }

@@ -122,9 +122,14 @@ template <int D> struct BindErosion {
 template <class Sv> struct Bind {
     static constexpr int D = Sv::dim;
 
-    static std::shared_ptr<Sv> make(double h, int ppc, double massCutoff, int padding, bp::object gravity)
+    static std::shared_ptr<Sv> make(double h, int ppc, double massCutoff, int padding, bp::object gravity,
+                                    const std::string& transfer, const std::string& stressUpdate)
     {
         SolverSettings s;
+        s.transfer = transferOf(transfer);
+        s.stressUpdate = stressUpdateOf(stressUpdate);
+        require(s.transfer != Transfer::unset, "transfer", transfer, "'FLIP' or 'APIC'");
+        require(s.stressUpdate != StressUpdate::unset, "stressUpdate", stressUpdate, "'smallStrain' or 'corotational'");
         s.h = h;
         s.ppc = ppc;
         s.massCutoff = massCutoff;
@@ -185,7 +190,11 @@ template <class Sv> struct Bind {
         np::ndarray a = zeros(n, 3, 3);
         double* out = reinterpret_cast<double*>(a.get_data());
         for (long p = 0; p < n; ++p) {
-            const auto& t = stress ? P.stress[p] : P.strain[p];
+            Mat<D> t = stress ? P.stress[p] : P.strain[p];
+            if (!stress && P.deformation) {  // the co-rotated strain U - I, turned to the spatial frame
+                Mat<D> R, U;
+                if (polarDecomposition(P.deformationGradient[p], R, U)) t = R * t * R.transpose();
+            }
             for (int i = 0; i < D; ++i)
                 for (int j = 0; j < D; ++j) out[9 * p + 3 * i + j] = t(i, j);
             if constexpr (D == 2) {
@@ -201,6 +210,36 @@ template <class Sv> struct Bind {
         return a;
     }
     static np::ndarray stress(const Sv& s) { return tensors(s, true); }
+    /// n x 3 x 3 array of D x D matrices per point (zero-padded).
+    template <class Get> static np::ndarray matrices(const Sv& s, Get get)
+    {
+        const long n = s.points().size();
+        np::ndarray a = zeros(n, 3, 3);
+        double* out = reinterpret_cast<double*>(a.get_data());
+        for (long p = 0; p < n; ++p) {
+            const Mat<D> m = get(p);
+            for (int i = 0; i < D; ++i)
+                for (int j = 0; j < D; ++j) out[9 * p + 3 * i + j] = m(i, j);
+        }
+        return a;
+    }
+    static np::ndarray velocityGradients(const Sv& s) { return matrices(s, [&](long p) { return s.velocityGradient(p); }); }
+    static np::ndarray deformationGradients(const Sv& s)
+    {
+        const auto& P = s.points();
+        return matrices(s, [&](long p) { return P.deformation ? P.deformationGradient[p] : Mat<D>::Identity(); });
+    }
+    static void setVelocityGradients(Sv& s, bp::object ids, np::ndarray grads)
+    {
+        const auto id = toIntList(ids);
+        const auto g = readArray(grads, static_cast<long>(id.size()), 9, "velocity gradients");
+        for (std::size_t i = 0; i < id.size(); ++i) {
+            Mat<D> C;
+            for (int a = 0; a < D; ++a)
+                for (int b = 0; b < D; ++b) C(a, b) = g[9 * i + 3 * a + b];
+            s.setVelocityGradient(id[i], C);
+        }
+    }
     static np::ndarray strain(const Sv& s) { return tensors(s, false); }
 
     template <class T> static np::ndarray scalars(const std::vector<T>& v)
@@ -333,7 +372,17 @@ template <class Sv> struct Bind {
         bp::class_<Sv, std::shared_ptr<Sv>, boost::noncopyable>(name, bp::no_init)
             .def("__init__", bp::make_constructor(&make, bp::default_call_policies(),
                                                   (bp::arg("h"), bp::arg("ppc"), bp::arg("massCutoff"),
-                                                   bp::arg("padding"), bp::arg("gravity"))))
+                                                   bp::arg("padding"), bp::arg("gravity"),
+                                                   bp::arg("transfer") = "FLIP", bp::arg("stressUpdate") = "smallStrain")))
+            .add_property("transfer", +[](const Sv& s) { return std::string(emp::name(s.settings().transfer)); })
+            .add_property("stressUpdate", +[](const Sv& s) { return std::string(emp::name(s.settings().stressUpdate)); })
+            .def("kineticEnergyAtStep", &Sv::kineticEnergyAtStep)
+            .def("externalWork", &Sv::externalWork)
+            .def("linearMomentum", +[](const Sv& s) { return fromVec3(s.linearMomentum()); })
+            .def("angularMomentum", +[](const Sv& s) { return fromVec3(s.angularMomentum()); })
+            .def("velocityGradients", &velocityGradients)
+            .def("deformationGradients", &deformationGradients)
+            .def("setVelocityGradients", &setVelocityGradients, (bp::arg("ids"), bp::arg("gradients")))
             .add_property("dim", +[](const Sv&) { return D; })
             .add_property("time", &Sv::time, &Sv::setTime)
             .add_property("steps", &Sv::steps)

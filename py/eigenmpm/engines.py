@@ -246,6 +246,13 @@ class MpmEngine(PyRunner):
                                       "no velocity (small-mass cut-off)", bounds="[0, 1)", fixed=True),
         Param("threads", None, "", "OpenMP threads; default O.numThreads (yade -j N)", kind="int",
               bounds="[1, inf)"),
+        Param("transfer", "FLIP", "", "particle-grid transfer: 'FLIP' (the paper's, Eqs 25, 30) or 'APIC' "
+                                      "(affine: carries linear velocity fields exactly and conserves angular "
+                                      "momentum; doc/stability.md)", choices=("FLIP", "APIC"), fixed=True),
+        Param("stressUpdate", "smallStrain", "", "'smallStrain' (the paper's Eq 27) or 'corotational' (a "
+                                                 "deformation gradient per point, the law on the co-rotated "
+                                                 "strain: rotations make no stress; doc/stability.md)",
+              choices=("smallStrain", "corotational"), fixed=True),
     )
 
     def __init__(self, **kw):
@@ -255,7 +262,8 @@ class MpmEngine(PyRunner):
             raise ValueError(f"EigenMPM: thickness = {self.thickness!r} is invalid in 3D: it is the "
                              "out-of-plane thickness of a 2D model; allowed: leave it out (MpmEngine)")
         self.solver = _SOLVERS[(self.dim, self.shape.lower())](h=self.h, ppc=self.ppc, massCutoff=self.massCutoff,
-                                                               padding=self.padding, gravity=self.gravity)
+                                                               padding=self.padding, gravity=self.gravity,
+                                                               transfer=self.transfer, stressUpdate=self.stressUpdate)
         if self.domain is not None:
             self.solver.setDomain(*self.domain)
         self.iterPeriod, self.initRun = 1, True
@@ -544,17 +552,73 @@ class MpmEngine(PyRunner):
         """Sum of V (c psi+ + psi-) over the points (paper Eq 32), J."""
         return self.solver.elasticEnergy()
 
+    def kineticEnergyAtStep(self):
+        """Kinetic energy at the time level of elasticEnergy() (the last step's t^n), J: sum
+        m v^{n-1/2} . v^{n+1/2} / 2 (plus the affine part with transfer='APIC'); 0 before a step."""
+        return self.solver.kineticEnergyAtStep()
+
+    def externalWork(self):
+        """Work done on the body so far by the velocity conditions' reactions, the tractions and
+        gravity, J."""
+        return self.solver.externalWork()
+
+    def linearMomentum(self):
+        """Total momentum sum m v, kg m/s (a Vector3; z = 0 in 2D)."""
+        return _vector(self.solver.linearMomentum())
+
+    def angularMomentum(self):
+        """Total angular momentum about the origin, kg m2/s (a Vector3; in 2D only z), with the
+        points' affine part when transfer='APIC'."""
+        return _vector(self.solver.angularMomentum())
+
+    def energyBalance(self):
+        """The energies at one time level (the last step's t^n), J: kinetic 'Ek', elastic 'Ee',
+        dissipated by the physics engines 'Ef' (eigenerosion, Eq 33), external work 'Wext', and
+        'balance' = Ek + Ee + Ef - Wext, which a conservative scheme keeps at its initial value."""
+        ek, ee, w = self.kineticEnergyAtStep(), self.elasticEnergy(), self.externalWork()
+        ef = sum(p.dissipatedEnergy() for p in self.physics.values() if hasattr(p, "dissipatedEnergy"))
+        return {"Ek": ek, "Ee": ee, "Ef": ef, "Wext": w, "balance": ek + ee + ef - w}
+
     def plotData(self):
-        """Scalars for ``yade.plot.addData``: kinetic and elastic energy (J) and the reaction force
-        components (N) of every velocity condition, keys prefixed with the engine's label."""
-        d = {f"{self.label}_Ek": self.kineticEnergy(), f"{self.label}_Ee": self.elasticEnergy()}
+        """Scalars for ``yade.plot.addData``, keys prefixed with the engine's label: kinetic
+        energy of the point velocities 'Ek' (half step) and elastic energy 'Ee' (J); the energy
+        balance at one time level (energyBalance): 'EkStep', 'Wext' and 'balance' (J); the
+        total momentum 'Px', 'Py'[, 'Pz'] and angular momentum 'Lz' (2D) or 'Lx', 'Ly', 'Lz' (3D);
+        the reaction force components (N) of every velocity condition; then the physics
+        engines' own (EigenErosion: 'Ef', 'eroded', 'front')."""
+        L, b = self.label, self.energyBalance()
+        d = {f"{L}_Ek": self.kineticEnergy(), f"{L}_Ee": b["Ee"], f"{L}_EkStep": b["Ek"], f"{L}_Wext": b["Wext"],
+             f"{L}_balance": b["balance"]}
+        p, l = self.solver.linearMomentum(), self.solver.angularMomentum()
+        for k in range(self.dim):
+            d[f"{L}_P{'xyz'[k]}"] = p[k]
+        for k in ((2,) if self.dim == 2 else (0, 1, 2)):
+            d[f"{L}_L{'xyz'[k]}"] = l[k]
         for name, bc in self.bcs.items():
             r = self.solver.reaction(bc.id)
             for k in range(self.dim):
-                d[f"{self.label}_{name}_R{'xyz'[k]}"] = r[k]
+                d[f"{L}_{name}_R{'xyz'[k]}"] = r[k]
         for phys in self.physics.values():
             d.update(phys.plotData())
         return d
+
+    def setVelocityGradient(self, ids, gradient):
+        """transfer='APIC': sets the affine velocity (velocity gradient, 1/s) the points `ids`
+        carry, e.g. that of their initial velocity field, so that the first transfer carries it
+        exactly. `gradient`: one 3x3 matrix (or DxD) for all, or one per point."""
+        ids = np.asarray(ids, dtype=int).ravel()
+        g = np.asarray(gradient, dtype=float)
+        if g.shape in ((2, 2), (3, 3)):
+            g = np.broadcast_to(g, (len(ids),) + g.shape)
+        if g.ndim != 3 or g.shape[0] != len(ids) or g.shape[1] != g.shape[2] or g.shape[1] not in (self.dim, 3):
+            raise ValueError(f"EigenMPM: gradient of shape {g.shape} is invalid; allowed: a {self.dim}x{self.dim} "
+                             f"(or 3x3) matrix, or one per point: {len(ids)} x 3 x 3 (MpmEngine.setVelocityGradient)")
+        full = np.zeros((len(ids), 3, 3))
+        full[:, :g.shape[1], :g.shape[2]] = g
+        if self.dim == 2 and np.any(full[:, 2, :] != 0) or np.any(full[:, :, 2] != 0) and self.dim == 2:
+            raise ValueError("EigenMPM: a gradient with z components is invalid in 2D; allowed: a 2x2 matrix "
+                             "(MpmEngine.setVelocityGradient)")
+        self.solver.setVelocityGradients([int(i) for i in ids], np.ascontiguousarray(full.reshape(len(ids), 9)))
 
 
 # The engine a physics or output engine works for, shared by their declarations.

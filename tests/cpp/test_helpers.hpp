@@ -47,6 +47,8 @@ inline emp::SolverSettings typicalSettings(double h = std::numeric_limits<double
     s.massCutoff = 1e-14;
     s.padding = 3;
     s.gravity.setZero();
+    s.transfer = emp::Transfer::flip;
+    s.stressUpdate = emp::StressUpdate::smallStrain;
     return s;
 }
 

@@ -1,0 +1,350 @@
+// Issue 14: the APIC transfer and the co-rotational stress update (Kinematics.hpp). Closed-form
+// and conservation checks at coarse resolution; the fine-resolution numbers are in
+// doc/stability.md ("Rotating and flying fragments").
+#include <cstdio>
+#include <random>
+
+#include "GridCondition.hpp"
+#include "test_helpers.hpp"
+
+namespace {
+
+using emp::GimpKernel;
+using emp::LinearKernel;
+using emp::Solver;
+using emp::StressUpdate;
+using emp::Transfer;
+using emptest::Mat;
+using emptest::to3;
+using emptest::Vec;
+
+constexpr double kPi = 3.14159265358979323846;
+
+emp::SolverSettings settings(double h, Transfer t, StressUpdate u)
+{
+    emp::SolverSettings s = emptest::typicalSettings(h);
+    s.transfer = t;
+    s.stressUpdate = u;
+    return s;
+}
+
+template <int D> Mat<D> rotation(double angle)
+{
+    Mat<D> R = Mat<D>::Identity();
+    R(0, 0) = R(1, 1) = std::cos(angle);
+    R(1, 0) = std::sin(angle);
+    R(0, 1) = -R(1, 0);
+    return R;
+}
+
+// --- polar decomposition ------------------------------------------------------------------
+
+template <int D> void checkPolar()
+{
+    std::mt19937 rng(7);
+    for (int trial = 0; trial < 200; ++trial) {
+        const Mat<D> R0 = emptest::randomRotation<D>(rng);
+        const double scale = trial < 100 ? 1e-3 : 0.3;  // brittle strains, then large ones
+        const Mat<D> U0 = Mat<D>::Identity() + emptest::randomSymmetric<D>(rng, scale);
+        Mat<D> R, U;
+        ASSERT_TRUE(emp::polarDecomposition(Mat<D>(R0 * U0), R, U));
+        EXPECT_LT((R - R0).cwiseAbs().maxCoeff(), 1e-13) << "trial " << trial;
+        EXPECT_LT((U - U0).cwiseAbs().maxCoeff(), 1e-13) << "trial " << trial;
+        EXPECT_LT((R.transpose() * R - Mat<D>::Identity()).cwiseAbs().maxCoeff(), 1e-14);
+    }
+    Mat<D> R, U, F = Mat<D>::Identity();
+    F(0, 0) = -1;  // a reflection: inverted, refused
+    EXPECT_FALSE(emp::polarDecomposition(F, R, U));
+}
+
+TEST(Kinematics, PolarDecomposition2D) { checkPolar<2>(); }
+TEST(Kinematics, PolarDecomposition3D) { checkPolar<3>(); }
+
+// --- APIC: affine fields ------------------------------------------------------------------
+
+template <class C> class KinematicsTyped : public ::testing::Test {};
+TYPED_TEST_SUITE(KinematicsTyped, emptest::AllSolvers);
+
+/// A block with free faces and an interior crack carries v = a + A x (a rotation, a stretch
+/// and a shear): with APIC the first step's nodal velocities are a + A x_I at every node with
+/// mass (faces and phantom twins too), so every point's strain increment is dt sym(A) and its
+/// new velocity a + A x_p; G2P's B_p is A D_p. FLIP misses at the faces (measured).
+TYPED_TEST(KinematicsTyped, AffineVelocityFieldIsCarriedExactlyByApic)
+{
+    constexpr int D = TypeParam::D;
+    using K = typename TypeParam::K;
+    const double h = 0.1;
+    Mat<D> A = Mat<D>::Zero();
+    A(0, 1) = -3.0, A(1, 0) = 3.0;  // rotation
+    A(0, 0) = 0.7, A(1, 1) = -0.4;  // stretch
+    A(0, 1) += 0.5;                 // shear
+    if (D == 3) A(2, 0) = 0.3, A(0, 2) = -0.2, A(2, 2) = 0.1;
+    if (!K::affineTransfer) {  // refused by name
+        const std::string m = emptest::messageOf<emp::ParameterError>(
+            [&] { Solver<D, K> s(settings(h, Transfer::apic, StressUpdate::smallStrain)); });
+        EXPECT_TRUE(emptest::contains(m, "'APIC' with shape 'linear'")) << m;
+        return;
+    }
+    Vec<D> a = Vec<D>::Constant(0.2);
+    const auto field = [&](const Vec<D>& x) { return Vec<D>(a + A * x); };
+    double worst[2] = {0, 0};
+    for (Transfer t : {Transfer::apic, Transfer::flip}) {
+        Solver<D, K> s(settings(h, t, StressUpdate::smallStrain));
+        // So soft that the first step's stress moves nothing: the transfer alone is measured.
+        const int mat = s.addMaterial(1e-6, 0.3, 1000, false, emp::lawIndex("spectral"));
+        std::array<int, D> lo, hi;
+        lo.fill(0);
+        hi.fill(4);
+        hi[0] = 6;
+        const auto ids = emptest::addBlock<D>(s, lo, hi, mat, field);
+        // An interior crack across the middle (a segment / a square in 3D).
+        if (D == 2)
+            s.addCrack({Eigen::Vector3d(0.23, 0.21, 0), Eigen::Vector3d(0.37, 0.21, 0)});
+        else
+            s.addCrack({Eigen::Vector3d(0.23, 0.21, 0.13), Eigen::Vector3d(0.37, 0.21, 0.13),
+                        Eigen::Vector3d(0.37, 0.21, 0.27), Eigen::Vector3d(0.23, 0.21, 0.27)});
+        if (t == Transfer::apic)
+            for (int p : ids) s.setVelocityGradient(p, A);
+        const auto x0 = s.points().x;
+        const double dt = 1e-3 * s.criticalTimeStep();
+        s.step(dt, 1);
+        ASSERT_GT(s.phantomNodes().numTwins(), 0);
+        const auto& P = s.points();
+        const Mat<D> expected = 0.5 * dt * (A + A.transpose());
+        double e = 0, ev = 0, eb = 0;
+        for (int p : ids) {
+            e = std::max(e, (P.strain[p] - expected).cwiseAbs().maxCoeff() / expected.cwiseAbs().maxCoeff());
+            ev = std::max(ev, (P.v[p] - field(x0[p])).norm() / field(x0[p]).norm());
+            if (t == Transfer::apic) {
+                emp::Stencil<D, K> st;
+                st.compute(x0[p], s.grid(), s.halfWidth());
+                double o[D][K::S];
+                st.offsets(x0[p], s.grid(), o);
+                const Mat<D> B = A * st.momentDiagonal(o).asDiagonal();
+                eb = std::max(eb, (P.affineVelocity[p] - B).cwiseAbs().maxCoeff() / B.cwiseAbs().maxCoeff());
+            }
+        }
+        worst[t == Transfer::flip] = e;
+        if (t == Transfer::apic) {
+            EXPECT_LT(e, 1e-9) << "strain increment";
+            EXPECT_LT(ev, 1e-12) << "velocity";
+            EXPECT_LT(eb, 1e-12) << "B_p";
+        }
+    }
+    std::printf("[ measured ] affine field through a cracked block with free faces: worst relative error of the "
+                "strain increment: APIC %.1e, FLIP %.2f\n",
+                worst[0], worst[1]);
+    EXPECT_GT(worst[1], 0.1) << "FLIP was expected to miss at the free faces";
+}
+
+// --- angular momentum ---------------------------------------------------------------------
+
+/// A free square (cube) spinning about its centre at a rim speed of 5 % of the wave speed, for
+/// 400 steps: with APIC the angular momentum (with the points' affine part) holds to round-off,
+/// whichever stress update; the linear momentum too.
+template <int D, class K> void checkAngularMomentum(StressUpdate u)
+{
+    Solver<D, K> s(settings(0.1, Transfer::apic, u));
+    const int mat = s.addMaterial(1e7, 0.3, 1000, false, emp::lawIndex("spectral"));
+    const double c = s.materials()[0].waveSpeed(), half = 3, omega = 0.05 * c / (half * 0.1 * std::sqrt(2.0));
+    std::array<int, D> lo, hi;
+    lo.fill(-3);
+    hi.fill(3);
+    Mat<D> W = Mat<D>::Zero();
+    W(0, 1) = -omega, W(1, 0) = omega;
+    const auto ids = emptest::addBlock<D>(s, lo, hi, mat, [&](const Vec<D>& x) { return Vec<D>(W * x); });
+    s.setDomain(Eigen::Vector3d::Constant(-1.0), Eigen::Vector3d::Constant(1.0));
+    for (int p : ids) s.setVelocityGradient(p, W);
+    const double L0 = s.angularMomentum()[2];
+    double scale = 0;
+    for (int p : ids) scale += s.points().mass[p] * s.points().v[p].norm();
+    double worst = 0, worstP = 0;
+    const double dt = 0.5 * s.criticalTimeStep();
+    for (int n = 0; n < 400; ++n) {
+        s.step(dt, 1);
+        worst = std::max(worst, (s.angularMomentum() - Eigen::Vector3d(0, 0, L0)).norm() / L0);
+        worstP = std::max(worstP, s.linearMomentum().norm() / scale);
+    }
+    std::printf("[ measured ] APIC, %s, %dD %s spinning block, 400 steps: max |L - L0|/L0 = %.1e, max |P|/sum m|v| = "
+                "%.1e\n",
+                emp::name(u), D, K::name, worst, worstP);
+    EXPECT_LT(worst, 1e-12);
+    EXPECT_LT(worstP, 1e-12);
+}
+
+TEST(Kinematics, ApicConservesAngularMomentum2DGimp)
+{
+    checkAngularMomentum<2, GimpKernel>(StressUpdate::corotational);
+    checkAngularMomentum<2, GimpKernel>(StressUpdate::smallStrain);
+}
+TEST(Kinematics, ApicConservesAngularMomentum3DGimp) { checkAngularMomentum<3, GimpKernel>(StressUpdate::corotational); }
+
+// --- objectivity --------------------------------------------------------------------------
+
+/// A grid condition that turns the body rigidly about `centre` by `step` radians per step: the
+/// nodal velocity after the forces is the chord field (R - I)(x_I - c) / dt, so the points move
+/// exactly by R; the velocity at the start of a step is the one that brought the points there,
+/// (I - R^T)(x_I - c) / dt (0 in the first step, from rest).
+template <int D> class RigidTurn : public emp::GridCondition<D> {
+public:
+    RigidTurn(const Vec<D>& centre, double step) : centre_(centre), R_(rotation<D>(step)) {}
+    void afterNodalVelocity(emp::GridState<D>& s) override
+    {
+        const Mat<D> M = started_ ? Mat<D>(Mat<D>::Identity() - R_.transpose()) : Mat<D>::Zero();
+        started_ = true;
+        forNodes(s, M, [&](int I, const Vec<D>& v) {
+            s.grid.velocity[I] = v;
+            s.grid.momentum[I] = s.grid.mass[I] * v;
+        });
+    }
+    void afterForces(emp::GridState<D>& s) override
+    {
+        forNodes(s, R_ - Mat<D>::Identity(),
+                 [&](int I, const Vec<D>& v) { s.grid.force[I] = (s.grid.mass[I] * v - s.grid.momentum[I]) / s.dt; });
+    }
+
+private:
+    template <class F> void forNodes(emp::GridState<D>& s, const Mat<D>& M, F&& f)
+    {
+        for (int I = 0; I < s.grid.numNodes(); ++I)
+            if (s.grid.mass[I] > 0) f(I, Vec<D>(M * (s.grid.nodePosition(I) - centre_) / s.dt));
+    }
+    bool started_ = false;
+    Vec<D> centre_;
+    Mat<D> R_;
+};
+
+/// A block pre-stressed by a uniform stretch and shear (F0 = I + eps0), turned rigidly by 90
+/// degrees in 60 steps (and a stress-free one by 135 degrees, with erosion attached): with the
+/// co-rotational update the stress is R sigma0 R^T and the free one stays free, with no point
+/// eroded; the small-strain update keeps the stress fixed in space and strains under the turn
+/// (measured).
+template <int D, class K> void checkRigidTurn()
+{
+    const double h = 0.1, E = 1e7;
+    Mat<D> eps0 = Mat<D>::Zero();
+    eps0(0, 0) = 2e-3, eps0(1, 1) = -1e-3, eps0(0, 1) = eps0(1, 0) = 5e-4;
+    if (D == 3) eps0(2, 2) = 1e-3;
+    double errors[2] = {0, 0};
+    for (StressUpdate u : {StressUpdate::corotational, StressUpdate::smallStrain}) {
+        for (double angle : {0.5 * kPi, 0.75 * kPi}) {
+            const bool prestressed = angle == 0.5 * kPi;
+            const Transfer t = K::affineTransfer ? Transfer::apic : Transfer::flip;
+            Solver<D, K> s(settings(h, t, u));
+            const int mat = s.addMaterial(E, 0.25, 1000, false, emp::lawIndex("spectral"));
+            std::array<int, D> lo, hi;
+            lo.fill(-2);
+            hi.fill(2);
+            const auto ids = emptest::addBlock<D>(s, lo, hi, mat);
+            s.setDomain(Eigen::Vector3d::Constant(-0.6), Eigen::Vector3d::Constant(0.6));
+            auto& P = s.points();
+            for (int p : ids) {
+                if (!prestressed) continue;
+                if (u == StressUpdate::corotational)
+                    P.deformationGradient[p] = Mat<D>::Identity() + eps0;
+                else
+                    P.strain[p] = eps0;
+            }
+            // The stress of the unturned pre-stressed block (the first step's, before any turn).
+            const Mat<D> sigma0 = [&] {
+                Solver<D, K> still(settings(h, t, u));
+                still.addMaterial(E, 0.25, 1000, false, emp::lawIndex("spectral"));
+                still.addPoint(Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), 1e-3, 0);
+                if (u == StressUpdate::corotational)
+                    still.points().deformationGradient[0] = Mat<D>::Identity() + eps0;
+                else
+                    still.points().strain[0] = eps0;
+                still.setDomain(Eigen::Vector3d::Constant(-0.5), Eigen::Vector3d::Constant(0.5));
+                still.step(1e-9, 1);
+                return Mat<D>(still.points().stress[0]);
+            }();
+            auto erosion = std::make_shared<emp::EigenErosion<D>>(emp::ErosionSettings{1e-3, 2.0, 1.1 * h});
+            if (!prestressed) s.setErosion(erosion);
+            const int steps = 60;
+            s.addCondition(std::make_shared<RigidTurn<D>>(Vec<D>::Zero(), angle / steps));
+            const double dt = 0.5 * s.criticalTimeStep();
+            // A step's stress is that of the state it starts from: step steps + 1 has the turned one.
+            for (int n = 0; n <= steps; ++n) s.step(dt, 1);
+            const Mat<D> R = rotation<D>(angle);
+            const Mat<D> expected = prestressed ? Mat<D>(R * sigma0 * R.transpose()) : Mat<D>::Zero();
+            const double scale = prestressed ? sigma0.cwiseAbs().maxCoeff() : E * 1e-3;
+            double e = 0;
+            for (int p : ids) e = std::max(e, (P.stress[p] - expected).cwiseAbs().maxCoeff() / scale);
+            std::printf("[ measured ] rigid turn by %.0f deg in %d steps, %dD %s, %s: max |sigma - R sigma0 R^T| = %.1e "
+                        "of %s%s\n",
+                        angle * 180 / kPi, steps, D, K::name, emp::name(u), e,
+                        prestressed ? "max |sigma0|" : "E x 1e-3", prestressed ? "" : (erosion->erodedCount() ? ", points eroded" : ", no point eroded"));
+            if (u == StressUpdate::corotational) {
+                EXPECT_LT(e, prestressed ? 1e-9 : 1e-10) << angle;
+                if (!prestressed) EXPECT_EQ(erosion->erodedCount(), 0u);
+            }
+            errors[u == StressUpdate::smallStrain] = std::max(errors[u == StressUpdate::smallStrain], e);
+        }
+    }
+    EXPECT_GT(errors[1], 0.1) << "the small-strain update was expected not to rotate the stress";
+}
+
+TEST(Kinematics, RigidTurnRotatesTheStress2DGimp) { checkRigidTurn<2, GimpKernel>(); }
+TEST(Kinematics, RigidTurnRotatesTheStress2DLinear) { checkRigidTurn<2, LinearKernel>(); }
+TEST(Kinematics, RigidTurnRotatesTheStress3DGimp) { checkRigidTurn<3, GimpKernel>(); }
+
+// --- energy -------------------------------------------------------------------------------
+
+/// The energy balance of a free vibrating bar, 8 x 2 cells, at 1 % of the wave speed (strain
+/// 1e-2), over `steps` steps at half the critical step: E = kineticEnergyAtStep + elastic, its
+/// mean over the first and the last 2000 steps.
+template <Transfer T, StressUpdate U> double energyDrift(long steps, double amp)
+{
+    Solver<2, GimpKernel> s(settings(0.1, T, U));
+    const int mat = s.addMaterial(1e7, 0.3, 1000, true, emp::lawIndex("spectral"));
+    const double v0 = amp * s.materials()[0].waveSpeed(), L = 0.8;
+    const auto ids = emptest::addBlock<2>(s, {0, 0}, {8, 2}, mat, [&](const Vec<2>& x) {
+        return Vec<2>(-v0 * std::cos(kPi * x[0] / L), 0.0);
+    });
+    if (T == Transfer::apic) {
+        for (int p : ids) {
+            Mat<2> G = Mat<2>::Zero();
+            G(0, 0) = v0 * kPi / L * std::sin(kPi * s.points().x[p][0] / L);
+            s.setVelocityGradient(p, G);
+        }
+    }
+    const double dt = 0.5 * s.criticalTimeStep();
+    const long window = 2000;
+    double first = 0, last = 0;
+    for (long n = 0; n < steps; ++n) {
+        s.step(dt, 1);
+        const double e = s.kineticEnergyAtStep() + s.elasticEnergy();
+        if (n < window) first += e / window;
+        if (n >= steps - window) last += e / window;
+    }
+    return (last - first) / first;
+}
+
+/// Measured (doc/stability.md): the issue's target, a drift below 0.1 % over 1e5 steps at 1 %
+/// of the wave speed, is not met on this 8 x 2 cell bar by any combination; APIC's own
+/// dissipation at 8 cells per half wavelength dominates its drift. What is asserted: the
+/// co-rotational update costs FLIP nothing at small strain, and removes the small-strain
+/// update's energy gain at large strain.
+TEST(Kinematics, EnergyOfAFreeVibration)
+{
+    const long steps = 20000;
+    double drift[2][2][2];  // [amplitude 1e-2, 1e-4][FLIP, APIC][small strain, corotational]
+    for (int a = 0; a < 2; ++a) {
+        const double amp = a == 0 ? 1e-2 : 1e-4;
+        drift[a][0][0] = energyDrift<Transfer::flip, StressUpdate::smallStrain>(steps, amp);
+        drift[a][0][1] = energyDrift<Transfer::flip, StressUpdate::corotational>(steps, amp);
+        drift[a][1][0] = energyDrift<Transfer::apic, StressUpdate::smallStrain>(steps, amp);
+        drift[a][1][1] = energyDrift<Transfer::apic, StressUpdate::corotational>(steps, amp);
+        std::printf("[ measured ] free bar 8 x 2 cells, 2D uGIMP, %ld steps at 0.5 critical, amplitude %g of c: energy "
+                    "drift FLIP + smallStrain %+.2e, FLIP + corotational %+.2e, APIC + smallStrain %+.2e, APIC + "
+                    "corotational %+.2e\n",
+                    steps, amp, drift[a][0][0], drift[a][0][1], drift[a][1][0], drift[a][1][1]);
+    }
+    EXPECT_LT(std::fabs(drift[1][0][1] - drift[1][0][0]), 1e-4);  // small strain: the same scheme
+    EXPECT_LT(std::fabs(drift[1][0][1]), 5e-3);
+    EXPECT_GT(drift[0][0][0], 0.1);                               // the small-strain update gains
+    EXPECT_LT(std::fabs(drift[0][0][1]), 0.5 * drift[0][0][0]);
+    EXPECT_LT(drift[0][1][1], 0.0);                               // APIC dissipates, never gains
+}
+
+}  // namespace
