@@ -66,7 +66,7 @@ inline StressUpdate stressUpdateOf(const std::string& s)
 /// Returns false when F is degenerate (det F <= 0 or no convergence).
 inline bool polarDecomposition(const Mat<2>& F, Mat<2>& R, Mat<2>& U)
 {
-    const double s = F(1, 0) - F(0, 1), c = F(0, 0) + F(1, 1), r = std::hypot(s, c);
+    const double s = F(1, 0) - F(0, 1), c = F(0, 0) + F(1, 1), r = std::sqrt(s * s + c * c);  // (not hypot: 5x slower)
     if (!(r > 0) || !(F.determinant() > 0)) return false;
     R << c / r, -s / r, s / r, c / r;
     const Mat<2> M = R.transpose() * F;
