@@ -37,6 +37,7 @@
 #include <string>
 
 #include "ElasticMaterial.hpp"
+#include "Inline.hpp"
 
 namespace emp {
 
@@ -64,11 +65,12 @@ inline StressUpdate stressUpdateOf(const std::string& s)
 /// det F > 0. 2D: closed form; 3D: Higham's Newton iteration X <- (X + X^-T) / 2, which
 /// converges quadratically from F (a few iterations for the small strains of brittle solids).
 /// Returns false when F is degenerate (det F <= 0 or no convergence).
-inline bool polarDecomposition(const Mat<2>& F, Mat<2>& R, Mat<2>& U)
+EMP_ALWAYS_INLINE bool polarDecomposition(const Mat<2>& F, Mat<2>& R, Mat<2>& U)
 {
-    const double s = F(1, 0) - F(0, 1), c = F(0, 0) + F(1, 1), r = std::sqrt(s * s + c * c);  // (not hypot: 5x slower)
-    if (!(r > 0) || !(F.determinant() > 0)) return false;
-    R << c / r, -s / r, s / r, c / r;
+    const double s = F(1, 0) - F(0, 1), c = F(0, 0) + F(1, 1), r2 = s * s + c * c;  // (not hypot: 5x slower)
+    if (!(r2 > 0) || !(F.determinant() > 0)) return false;
+    const double ir = 1.0 / std::sqrt(r2), cr = c * ir, sr = s * ir;
+    R << cr, -sr, sr, cr;
     const Mat<2> M = R.transpose() * F;
     U = 0.5 * (M + M.transpose());
     return true;
@@ -96,7 +98,7 @@ inline bool polarDecomposition(const Mat<3>& F, Mat<3>& R, Mat<3>& U)
 
 /// C = B D^-1 for the diagonal d of a moment matrix (APIC). A direction with d = 0 (a linear
 /// kernel's point exactly on a node line: its only node there has no offset) gets 0.
-template <int D> inline Mat<D> affineOf(const Mat<D>& B, const Vec<D>& d)
+template <int D> EMP_ALWAYS_INLINE Mat<D> affineOf(const Mat<D>& B, const Vec<D>& d)
 {
     Mat<D> C;
     for (int k = 0; k < D; ++k) C.col(k) = d[k] > 0 ? Vec<D>(B.col(k) / d[k]) : Vec<D>::Zero();
@@ -105,7 +107,7 @@ template <int D> inline Mat<D> affineOf(const Mat<D>& B, const Vec<D>& d)
 
 /// The Cauchy stress R s U R^T / det U of a co-rotated stress s (coaxial with U for an
 /// isotropic law: s U is symmetric up to round-off, and is symmetrised).
-template <int D> inline Mat<D> cauchyStress(const Mat<D>& R, const Mat<D>& U, const Mat<D>& s)
+template <int D> EMP_ALWAYS_INLINE Mat<D> cauchyStress(const Mat<D>& R, const Mat<D>& U, const Mat<D>& s)
 {
     const Mat<D> t = R * (s * U) * R.transpose();
     return (0.5 / U.determinant()) * (t + t.transpose());

@@ -406,9 +406,9 @@ template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThre
                     B.noalias() += (N * g.velocity[I]) * dx.transpose();
                 });
                 v = vg;
-                const Mat<D> C = affineOf(B, dm), Cold = affineOf(P.affineVelocity[p], dm);
-                double affine = 0;  // m tr(C_old D C^T) / 2 at this position
-                for (int d = 0; d < D; ++d) affine += dm[d] * Cold.col(d).dot(C.col(d));
+                double affine = 0;  // m tr(C_old D C^T) / 2 at this position, C = B D^-1
+                for (int d = 0; d < D; ++d)
+                    if (dm[d] > 0) affine += P.affineVelocity[p].col(d).dot(B.col(d)) / dm[d];
                 acc.kinetic += 0.5 * P.mass[p] * (P.v[p].dot(v) + affine);
                 P.affineVelocity[p] = B;
             } else {

@@ -8,14 +8,7 @@
 #include "Grid.hpp"
 #include "PhantomNodes.hpp"
 
-// Forced inline (GCC/Clang): forEach is called per point in every pass and must merge with the
-// pass's body so that the sums over the nodes stay in registers; left to itself, GCC's inliner
-// keeps some instantiations out of line in a large translation unit (about 20% slower).
-#if defined(__GNUC__)
-#define EMP_ALWAYS_INLINE __attribute__((always_inline)) inline
-#else
-#define EMP_ALWAYS_INLINE inline
-#endif
+#include "Inline.hpp"
 
 namespace emp {
 

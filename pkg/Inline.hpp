@@ -1,0 +1,11 @@
+// EMP_ALWAYS_INLINE: forced inlining (GCC/Clang) of the small per-point functions of the hot
+// passes. Left to itself, GCC's inliner keeps some instantiations out of line in a large
+// translation unit, and a per-point call then costs the call and keeps the pass's sums out of
+// registers (about 20 % for Stencil::forEach; 20 % for the co-rotational update's helpers).
+#pragma once
+
+#if defined(__GNUC__)
+#define EMP_ALWAYS_INLINE __attribute__((always_inline)) inline
+#else
+#define EMP_ALWAYS_INLINE inline
+#endif
