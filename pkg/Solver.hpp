@@ -169,7 +169,7 @@ private:
     void transportCracks(double dt);
 
     // Per-point pieces of the fused stress/force pass.
-    void updateStress(int p, const St& st, double dt);
+    template <bool corotational> void updateStress(int p, const St& st, double dt);
     /// The co-rotational update's stress of point p from its deformation gradient (Kinematics.hpp).
     void corotationalStress(int p);
     /// The Cauchy stress R s U R^T / J of a co-rotated stress s at point p's deformation gradient.

@@ -8,6 +8,7 @@
 #include <cmath>
 
 #include "../ElasticMaterial.hpp"
+#include "../Inline.hpp"
 
 namespace emp {
 
@@ -82,7 +83,7 @@ struct SpectralSplit {
         l << l(k), lminus, lplus;  // only the set of values is used below
     }
 
-    template <int D> static LawResponse<D> response(const Mat<D>& eps, const ElasticMaterial& mat)
+    template <int D> EMP_ALWAYS_INLINE static LawResponse<D> response(const Mat<D>& eps, const ElasticMaterial& mat)
     {
         const double lambda = mat.lambda, mu = mat.mu;
         Vec<D> l;
