@@ -31,10 +31,15 @@ MpmEngine: FLIP, the paper's and the default, or APIC, which needs shape=uGIMP) 
 DIR/summary.json (initiation_time_us, branching_time_us, cut_through_time_us (the first time
 the crack grown from the pre-crack tip reaches the right edge; right_edge_time_upper_us and
 _lower_us per branch, branches_at_right_edge), max_tip_speed_m_s, dissipated_energy_J,
-transfer, stress_update, particles, steps, wall_time_s, particle_steps_per_s, ...), DIR/damage.png,
-DIR/energy.png (elastic, kinetic and dissipated energy), DIR/tip_speed.png (over the same windows as
-max_tip_speed_m_s, tip_speed_window_us), DIR/eroded.csv (positions of the eroded points at the
-end, mm) and a VTK series DIR/vtk/plate-*.vtp. --quick: h = 1 mm, 40 us.
+external_work_J (work of the tractions at the end), energy_balance_final_J (Ek + Ee + Ef - Wext
+at the end, MpmEngine.energyBalance) and energy_balance_max_abs_J (the largest change of that
+balance from its first record), transfer, stress_update, particles, steps, wall_time_s,
+particle_steps_per_s, ...), DIR/damage.png, DIR/energy.png (elastic, kinetic and dissipated
+energy, and the balance Ek + Ee + Ef - Wext with Ek at the elastic energy's time level),
+DIR/energy.csv (t_us and, in J at each record, Ek at the step, Ee, Ef, Wext, balance),
+DIR/tip_speed.png (over the same windows as max_tip_speed_m_s, tip_speed_window_us),
+DIR/eroded.csv (positions of the eroded points at the end, mm) and a VTK series
+DIR/vtk/plate-*.vtp. --quick: h = 1 mm, 40 us.
 """
 import json
 import math
@@ -137,7 +142,12 @@ def main(argv):
                    right_edge_time_upper_us=None if sides[0] is None else 1e6 * sides[0],
                    right_edge_time_lower_us=None if sides[1] is None else 1e6 * sides[1],
                    branches_at_right_edge=sum(v is not None for v in sides))
-    summary.update(transfer=mpm.transfer, stress_update=mpm.stressUpdate)
+    # The energy balance Ek + Ee + Ef - Wext (MpmEngine.energyBalance, recorded by PlotRecorder):
+    # its change from the first record is the scheme's error plus what erosion books differently.
+    balance = np.array(plot.data.get("plate_balance", []))
+    summary.update(external_work_J=mpm.externalWork(), energy_balance_final_J=mpm.energyBalance()["balance"],
+                   energy_balance_max_abs_J=float(np.max(np.abs(balance - balance[0]))) if len(balance) else None,
+                   transfer=mpm.transfer, stress_update=mpm.stressUpdate)
     summary.update(particles=n, steps=steps, wall_time_s=wall, particle_steps_per_s=n * steps / wall,
                    elastic_energy_J=mpm.elasticEnergy(), kinetic_energy_J=mpm.kineticEnergy(),
                    tips_at_end=len(crack.history[-1][4]) if crack.history else 0,
@@ -149,9 +159,14 @@ def main(argv):
                header="x_mm,y_mm", comments="")
     plots.damageMap(mpm, os.path.join(out, "damage.png"))
     t = np.array(plot.data["t"])
+    keys = ("plate_EkStep", "plate_Ee", "erosion_Ef", "plate_Wext", "plate_balance")
+    np.savetxt(os.path.join(out, "energy.csv"), np.column_stack([1e6 * t] + [plot.data[k] for k in keys]),
+               fmt="%.9g", delimiter=",", header="t_us,Ek_J,Ee_J,Ef_J,Wext_J,balance_J", comments="")
     plots.series(os.path.join(out, "energy.png"), t, {"elastic (Eq 32)": plot.data["plate_Ee"],
                                                       "kinetic": plot.data["plate_Ek"],
-                                                      "dissipated (Eq 33)": plot.data["erosion_Ef"]},
+                                                      "dissipated (Eq 33)": plot.data["erosion_Ef"],
+                                                      "external work": plot.data["plate_Wext"],
+                                                      "balance Ek+Ee+Ef-Wext": plot.data["plate_balance"]},
                  ylabel="energy (J)", title="Crack branching: energies")
     ts, v = crack.tipSpeed()  # the window of max_tip_speed_m_s in summary.json
     w = summary["tip_speed_window_us"]
