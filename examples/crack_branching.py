@@ -25,14 +25,21 @@ then counts the resumed part only).
 with params h_mm, ppc, shape, kappaOverH, alpha, endTime_us, dt_us, dtFraction (if > 0: the time step
 as this fraction of the critical step, instead of dt_us), phantom, notchWidthOverH, vtkPeriod_us, split
 (the tension/compression split of the strain energy: spectral, the paper's and the default; volumetric;
-none; see doc/fracture.md), E, nu, rho, Gc, traction_MPa. Writes
+none; see doc/fracture.md), E, nu, rho, Gc, traction_MPa, transfer (the particle-grid transfer of
+MpmEngine: FLIP, the paper's and the default, or APIC, which needs shape=uGIMP) and stressUpdate
+(smallStrain, the paper's and the default, or corotational; doc/stability.md). Writes
 DIR/summary.json (initiation_time_us, branching_time_us, cut_through_time_us (the first time
 the crack grown from the pre-crack tip reaches the right edge; right_edge_time_upper_us and
 _lower_us per branch, branches_at_right_edge), max_tip_speed_m_s, dissipated_energy_J,
-particles, steps, wall_time_s, particle_steps_per_s, ...), DIR/damage.png, DIR/energy.png
-(elastic, kinetic and dissipated energy), DIR/tip_speed.png (over the same windows as
-max_tip_speed_m_s, tip_speed_window_us), DIR/eroded.csv (positions of the eroded points at the
-end, mm) and a VTK series DIR/vtk/plate-*.vtp. --quick: h = 1 mm, 40 us.
+external_work_J (work of the tractions at the end), energy_balance_final_J (Ek + Ee + Ef - Wext
+at the end, MpmEngine.energyBalance) and energy_balance_max_abs_J (the largest change of that
+balance from its first record), transfer, stress_update, particles, steps, wall_time_s,
+particle_steps_per_s, ...), DIR/damage.png, DIR/energy.png (elastic, kinetic and dissipated
+energy, and the balance Ek + Ee + Ef - Wext with Ek at the elastic energy's time level),
+DIR/energy.csv (t_us and, in J at each record, Ek at the step, Ee, Ef, Wext, balance),
+DIR/tip_speed.png (over the same windows as max_tip_speed_m_s, tip_speed_window_us),
+DIR/eroded.csv (positions of the eroded points at the end, mm) and a VTK series
+DIR/vtk/plate-*.vtp. --quick: h = 1 mm, 40 us.
 """
 import json
 import math
@@ -50,7 +57,7 @@ from eigenmpm.fracture import linked
 
 DEFAULTS = dict(h_mm=0.25, ppc=2, shape="uGIMP", kappaOverH=1.1, alpha=2.0, endTime_us=80.0, dt_us=0.01,
                 dtFraction=0.0, phantom=1.0, notchWidthOverH=2.0, vtkPeriod_us=10.0, E=72e9, nu=0.22, rho=2440.0,
-                Gc=135.0, traction_MPa=12.0, split="spectral")
+                Gc=135.0, traction_MPa=12.0, split="spectral", transfer="FLIP", stressUpdate="smallStrain")
 QUICK = dict(h_mm=1.0, endTime_us=40.0, dt_us=0.04)
 
 
@@ -63,7 +70,8 @@ def build(o):
         plate = plate - pack.inAlignedBox((-1, 0.5 * W - notch, -1), (0.5 * L, 0.5 * W + notch, 1))
     # The grid leaves 5 mm around the plate: after cut-through the halves fly apart.
     mpm = em.MpmEngine(dim=2, h=h, ppc=o["ppc"], shape=o["shape"], thickness=h, label="plate",
-                       domain=((-0.005, -0.005, 0), (L + 0.005, W + 0.005, 0)))
+                       domain=((-0.005, -0.005, 0), (L + 0.005, W + 0.005, 0)),
+                       transfer=o["transfer"], stressUpdate=o["stressUpdate"])
     glass = em.ElasticMaterial(E=o["E"], nu=o["nu"], rho=o["rho"], planeStress=True, split=o["split"])
     mpm.fill(plate, glass)
     if o["phantom"]:
@@ -134,6 +142,12 @@ def main(argv):
                    right_edge_time_upper_us=None if sides[0] is None else 1e6 * sides[0],
                    right_edge_time_lower_us=None if sides[1] is None else 1e6 * sides[1],
                    branches_at_right_edge=sum(v is not None for v in sides))
+    # The energy balance Ek + Ee + Ef - Wext (MpmEngine.energyBalance, recorded by PlotRecorder):
+    # its change from the first record is the scheme's error plus what erosion books differently.
+    balance = np.array(plot.data.get("plate_balance", []))
+    summary.update(external_work_J=mpm.externalWork(), energy_balance_final_J=mpm.energyBalance()["balance"],
+                   energy_balance_max_abs_J=float(np.max(np.abs(balance - balance[0]))) if len(balance) else None,
+                   transfer=mpm.transfer, stress_update=mpm.stressUpdate)
     summary.update(particles=n, steps=steps, wall_time_s=wall, particle_steps_per_s=n * steps / wall,
                    elastic_energy_J=mpm.elasticEnergy(), kinetic_energy_J=mpm.kineticEnergy(),
                    tips_at_end=len(crack.history[-1][4]) if crack.history else 0,
@@ -145,9 +159,14 @@ def main(argv):
                header="x_mm,y_mm", comments="")
     plots.damageMap(mpm, os.path.join(out, "damage.png"))
     t = np.array(plot.data["t"])
+    keys = ("plate_EkStep", "plate_Ee", "erosion_Ef", "plate_Wext", "plate_balance")
+    np.savetxt(os.path.join(out, "energy.csv"), np.column_stack([1e6 * t] + [plot.data[k] for k in keys]),
+               fmt="%.9g", delimiter=",", header="t_us,Ek_J,Ee_J,Ef_J,Wext_J,balance_J", comments="")
     plots.series(os.path.join(out, "energy.png"), t, {"elastic (Eq 32)": plot.data["plate_Ee"],
                                                       "kinetic": plot.data["plate_Ek"],
-                                                      "dissipated (Eq 33)": plot.data["erosion_Ef"]},
+                                                      "dissipated (Eq 33)": plot.data["erosion_Ef"],
+                                                      "external work": plot.data["plate_Wext"],
+                                                      "balance Ek+Ee+Ef-Wext": plot.data["plate_balance"]},
                  ylabel="energy (J)", title="Crack branching: energies")
     ts, v = crack.tipSpeed()  # the window of max_tip_speed_m_s in summary.json
     w = summary["tip_speed_window_us"]

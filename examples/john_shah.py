@@ -56,11 +56,13 @@ parameters) to the end state of the uninterrupted run, the load record and the s
 the VTK series continues in the first run's folder).
 
 params: gamma, h_mm, kappaOverH, alpha, endTime_us, dt_us, v0_m_s, rampTime_us, overhang_mm,
-flaw_mm, notchWidth_mm, flawWidth_mm, supportWidth_mm, loadWidth_mm, stopAfter_us, vtkPeriod_us, E, nu, rho, Gc. Writes
+flaw_mm, notchWidth_mm, flawWidth_mm, supportWidth_mm, loadWidth_mm, stopAfter_us, vtkPeriod_us, E, nu, rho, Gc,
+transfer (the particle-grid transfer of MpmEngine: FLIP, the paper's and the default, or APIC) and
+stressUpdate (smallStrain, the paper's and the default, or corotational; doc/stability.md). Writes
 DIR/summary.json (crack_origin, initiation_time_us, notch_/midspan_initiation_time_us and the load
 and nominal midspan bending stress then (notch_/midspan_initiation_load_N, ..._midspan_stress_Pa), the
-crack tops, eroded_elsewhere, peak_load_N, dissipated_energy_J, particles, steps, wall_time_s,
-particle_steps_per_s, ...), DIR/damage.png, DIR/load.png (load-point and support reactions)
+crack tops, eroded_elsewhere, peak_load_N, dissipated_energy_J, transfer, stress_update, particles,
+steps, wall_time_s, particle_steps_per_s, ...), DIR/damage.png, DIR/load.png (load-point and support reactions)
 and a VTK series DIR/vtk/beam-*.vtp.
 
 --quick: h = 2.54 mm (12 000 points), dt = 0.5 us (critical 0.69 us). Measured on one core:
@@ -97,7 +99,8 @@ from eigenmpm.ramp import rampDisplacement
 DEFAULTS = dict(gamma=0.5, h_mm=0.635, kappaOverH=1.15, alpha=2.0, endTime_us=4000.0, dt_us=0.1,
                 v0_m_s=0.06, rampTime_us=196.0, overhang_mm=12.7, flaw_mm=1.27, notchWidth_mm=0.0, flawWidth_mm=0.0,
                 supportWidth_mm=2.54, loadWidth_mm=2.54, stopAfter_us=20.0,
-                vtkPeriod_us=100.0, E=31.37e9, nu=0.2, rho=2400.0, Gc=31.1)
+                vtkPeriod_us=100.0, E=31.37e9, nu=0.2, rho=2400.0, Gc=31.1, transfer="FLIP",
+                stressUpdate="smallStrain")
 QUICK = dict(h_mm=2.54, dt_us=0.5)
 D, L, L1, A = 0.0762, 0.2286, 0.1016, 0.01905
 
@@ -114,7 +117,8 @@ def geometry(o):
 
 def build(o):
     h, s, half, xn = geometry(o)
-    mpm = em.MpmEngine(dim=2, h=h, ppc=2, thickness=h, label="beam")
+    mpm = em.MpmEngine(dim=2, h=h, ppc=2, thickness=h, label="beam", transfer=o["transfer"],
+                       stressUpdate=o["stressUpdate"])
     concrete = em.ElasticMaterial(E=o["E"], nu=o["nu"], rho=o["rho"], planeStress=True)
     beam = pack.inAlignedBox((-half, 0, 0), (half, D, 0))
     w = 0.5e-3 * o["notchWidth_mm"]
@@ -254,7 +258,7 @@ def main(argv):
                    particles=n, steps=steps, wall_time_s=wall, particle_steps_per_s=n * steps / wall, dt_s=O.dt,
                    critical_dt_s=mpm.criticalTimeStep(),
                    max_point_speed_m_s=float(np.max(np.linalg.norm(mpm.solver.velocities(), axis=1))),
-                   parameters=o, quick=quick)
+                   transfer=mpm.transfer, stress_update=mpm.stressUpdate, parameters=o, quick=quick)
     summary.update(end.summary())
     with open(os.path.join(out, "summary.json"), "w") as f:
         json.dump(summary, f, indent=2)

@@ -66,9 +66,12 @@ continues in the first run's folder).
 params: h_mm, kappaOverH, alpha, endTime_us, dt_us, v0_m_s, rampTime_us, slitWidth_mm,
 slitLength_mm, stopAfter_us, initLength_mm, tipWindow_us, vtkPeriod_us, E, nu, rho, Gc, split (the
 tension/compression split of the strain energy: spectral, the paper's and the default; volumetric;
-none; see doc/fracture.md). Writes
+none; see doc/fracture.md), transfer (the particle-grid transfer of MpmEngine: FLIP, the paper's
+and the default, or APIC) and stressUpdate (smallStrain, the paper's and the default, or
+corotational; doc/stability.md). Writes
 DIR/summary.json (initiation_time_us, crack_angle_initial_deg, crack_angle_overall_deg,
-crack_angle_fit_deg, boundary_time_us, max_tip_speed_m_s, dissipated_energy_J, particles,
+crack_angle_fit_deg, boundary_time_us, max_tip_speed_m_s, dissipated_energy_J, transfer,
+stress_update, particles,
 steps, wall_time_s, particle_steps_per_s, ...), DIR/damage.png, DIR/tip_speed.png (with the
 Rayleigh speed), DIR/energy.png, DIR/crack_path.csv and a VTK series DIR/vtk/plate-*.vtp.
 
@@ -102,7 +105,7 @@ from eigenmpm.fracture import linked
 DEFAULTS = dict(h_mm=0.5, kappaOverH=1.15, alpha=2.0, endTime_us=110.0, dt_us=0.01, v0_m_s=16.5,
                 rampTime_us=1.0, slitWidth_mm=1.0, slitLength_mm=40.0, stopAfter_us=2.0, initLength_mm=10.0,
                 tipWindow_us=2.0, vtkPeriod_us=10.0, E=190e9, nu=0.3, rho=8000.0, Gc=22130.0,
-                split="spectral")
+                split="spectral", transfer="FLIP", stressUpdate="smallStrain")
 QUICK = dict(h_mm=1.0, dt_us=0.12)
 RAYLEIGH = 2803.0
 SIZE, NOTCH_LEN = 0.1, 0.05
@@ -122,7 +125,8 @@ def build(o):
     # The grid leaves 5 mm around the plate: the impact wave reflected at the free right edge moves
     # its points outward by more than a few cells (at h = 0.5 mm a point left a 3-cell margin at 86 us).
     mpm = em.MpmEngine(dim=2, h=h, ppc=2, thickness=1.0, label="plate",
-                       domain=((-0.005, -0.005, 0), (SIZE + 0.005, SIZE + 0.005, 0)))
+                       domain=((-0.005, -0.005, 0), (SIZE + 0.005, SIZE + 0.005, 0)),
+                       transfer=o["transfer"], stressUpdate=o["stressUpdate"])
     steel = em.ElasticMaterial(E=o["E"], nu=o["nu"], rho=o["rho"], planeStress=False, split=o["split"])
     plate = pack.inAlignedBox((0, 0, 0), (SIZE, SIZE, 0))
     if o["slitWidth_mm"] > 0 and o["slitLength_mm"] > 0:
@@ -282,7 +286,7 @@ def main(argv):
                    eroded_count=s["eroded_count"], particles=n, steps=steps, wall_time_s=wall,
                    particle_steps_per_s=n * steps / wall, dt_s=O.dt, critical_dt_s=mpm.criticalTimeStep(),
                    elastic_energy_J=mpm.elasticEnergy(), kinetic_energy_J=mpm.kineticEnergy(),
-                   parameters=o, quick=quick)
+                   transfer=mpm.transfer, stress_update=mpm.stressUpdate, parameters=o, quick=quick)
     summary.update(end.summary())
     with open(os.path.join(out, "summary.json"), "w") as f:
         json.dump(summary, f, indent=2)

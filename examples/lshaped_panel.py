@@ -26,9 +26,12 @@ first run's folder).
 params: h_mm, ppc, shape, alpha, kappaOverH, velocity_m_s, endDisplacement_mm, rampTime_ms (the
 velocity ramps up over this time, paper Eq 34; 0: applied suddenly), smoothWindow_ms (the load is
 the reaction's moving average over this window: the run is dynamic and the reaction carries the
-panel's vibrations), dtFraction, loadWidth_mm.
+panel's vibrations), dtFraction, loadWidth_mm, E, nu, rho, Gc, transfer (the particle-grid transfer
+of MpmEngine: FLIP, the paper's and the default, or APIC, which needs shape=uGIMP) and stressUpdate
+(smallStrain, the paper's and the default, or corotational; doc/stability.md).
 Writes DIR/summary.json (peak_load_kN and displacement_at_peak_mm: the maximum of the smoothed
-load; initiation_load_kN and initiation_displacement_mm: at the first erosion, ...), DIR/load_displacement.csv,
+load; initiation_load_kN and initiation_displacement_mm: at the first erosion; transfer,
+stress_update, ...), DIR/load_displacement.csv,
 DIR/eroded.csv (positions of the eroded points at the end, mm),
 DIR/load_displacement.png (with the experimental band), DIR/damage.png and DIR/vtk/.
 --quick: h = 10 mm.
@@ -48,7 +51,8 @@ from eigenmpm.cli import checkpointArgs, finish, runSteps, scriptArgs
 from eigenmpm.ramp import rampDisplacement, rampTimeTo
 
 DEFAULTS = dict(h_mm=5.0, ppc=2, shape="uGIMP", alpha=1.5, kappaOverH=1.1, velocity_m_s=0.01,
-                endDisplacement_mm=0.5, rampTime_ms=0.0, smoothWindow_ms=0.2, dtFraction=0.8, loadWidth_mm=0.0, E=25.85e9, nu=0.18, rho=2500.0, Gc=89.0)
+                endDisplacement_mm=0.5, rampTime_ms=0.0, smoothWindow_ms=0.2, dtFraction=0.8, loadWidth_mm=0.0, E=25.85e9, nu=0.18, rho=2500.0, Gc=89.0,
+                transfer="FLIP", stressUpdate="smallStrain")
 QUICK = dict(h_mm=10.0)
 # The paper's critical (vertical displacement mm, load kN): Table 1 at h = 5 mm by (alpha, kappa/h),
 # and Table 2's loads at alpha = 1.5, kappa = 1.1 h by h (mm).
@@ -86,7 +90,8 @@ def build(o):
     h = o["h_mm"] * 1e-3
     a = 0.25
     panel = pack.inAlignedBox((0, 0, 0), (2 * a, 2 * a, 0)) - pack.inAlignedBox((a, -1, -1), (1, a, 1))
-    mpm = em.MpmEngine(dim=2, h=h, ppc=o["ppc"], shape=o["shape"], thickness=0.1, label="panel")
+    mpm = em.MpmEngine(dim=2, h=h, ppc=o["ppc"], shape=o["shape"], thickness=0.1, label="panel",
+                       transfer=o["transfer"], stressUpdate=o["stressUpdate"])
     concrete = em.ElasticMaterial(E=o["E"], nu=o["nu"], rho=o["rho"], planeStress=True)
     mpm.fill(panel, concrete)
     mpm.fix(points=pack.inAlignedBox((-1, -1, -1), (a, 0.5 * h, 1)), label="base")
@@ -147,7 +152,8 @@ def main(argv):
                    initiation_load_kN=None if i_init is None else float(Fs[i_init]) / 1e3,
                    initiation_displacement_mm=None if i_init is None else float(u[i_init]) * 1e3,
                    peak_load_raw_kN=float(np.max(F)) / 1e3, particles=n, steps=steps, wall_time_s=wall,
-                   particle_steps_per_s=n * steps / wall, dt_s=O.dt, parameters=o, quick=quick, **end.summary())
+                   particle_steps_per_s=n * steps / wall, dt_s=O.dt, transfer=mpm.transfer,
+                   stress_update=mpm.stressUpdate, parameters=o, quick=quick, **end.summary())
     summary.update({k: v for k, v in crack.summary().items() if k != "crack_tips_m"})
     with open(os.path.join(out, "summary.json"), "w") as f:
         json.dump(summary, f, indent=2)
