@@ -408,6 +408,16 @@ def test_vibrating_bar_resumes_from_its_checkpoint_to_the_same_end_state(tmp_pat
     assert sa["steps"] == 481 and sa["rel_error"] < 0.01
 
 
+def test_spinning_disc_resumes_from_its_checkpoint_to_the_same_end_state(tmp_path):
+    """spinning_disc.py --quick (1383 steps, APIC + corotational) --checkpoint-every 500, then
+    --resume from iteration 1000: the same summary (its means and peaks come from the record of
+    the whole run, most of it saved in the checkpoint; the affine velocities and deformation
+    gradients come back with the solver)."""
+    sa, _ = _resumeExample(tmp_path, "verification/spinning_disc.py", ["plot=0"], 500,
+                           ["checkpoint-000000500", "checkpoint-000001000"], [])
+    assert sa["steps"] == 1383 and sa["eroded_points"] == 0 and sa["transfer"] == "APIC"
+
+
 def test_lpanel_corner_resumes_in_the_ramp_or_in_the_load_record_to_the_same_end_state(tmp_path):
     """lpanel_corner.py h_mm=10 (a ramp of 2042 steps, then 82 recording the load)
     --checkpoint-every 1050: resumed from iteration 2100 (in the load record, which the checkpoint
