@@ -745,21 +745,22 @@ template <int D, class K> void Solver<D, K>::setVelocityGradient(int p, const Ma
     require(p >= 0 && p < static_cast<int>(points_.size()), "point id", p, "0 <= id < " + std::to_string(points_.size()));
     require(C.allFinite(), "velocity gradient (1/s)", "non-finite", "finite components");
     initialize();
-    St st;
-    st.compute(points_.x[p], grid_, lp_);
-    double o[D][S];
-    st.offsets(points_.x[p], grid_, o);
-    points_.affineVelocity[p] = C * st.momentDiagonal(o).asDiagonal();
+    points_.affineVelocity[p] = C * momentDiagonalAt(p).asDiagonal();
 }
 
 template <int D, class K> Mat<D> Solver<D, K>::velocityGradient(int p) const
 {
     if (settings_.transfer != Transfer::apic || !initialized_) return Mat<D>::Zero();
+    return affineOf(points_.affineVelocity[p], momentDiagonalAt(p));
+}
+
+template <int D, class K> Vec<D> Solver<D, K>::momentDiagonalAt(int p) const
+{
     St st;
     st.compute(points_.x[p], grid_, lp_);
     double o[D][S];
     st.offsets(points_.x[p], grid_, o);
-    return affineOf(points_.affineVelocity[p], st.momentDiagonal(o));
+    return st.momentDiagonal(o);
 }
 
 #define EMP_INSTANTIATE(D, K) template class Solver<D, K>;

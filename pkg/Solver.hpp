@@ -178,6 +178,8 @@ private:
     void scatterInternalForce(int p, const St& st, const Vec<D>& gravity);
     /// The stencil of one point computed on its own (serial stages: erosion, tractions).
     St stencilOf(int p);
+    /// APIC's moment matrix diagonal of point p at its current position (Stencil::momentDiagonal).
+    Vec<D> momentDiagonalAt(int p) const;
 
     SolverSettings settings_;
     double lp_;  ///< particle half-width in cells, 1/(2 ppc)
