@@ -14,11 +14,25 @@
 // a class deriving from GridCondition<D>, registered with Solver::addCondition; the step does
 // not change. A condition runs once per step, not per point, so a virtual call is cheap here.
 #pragma once
+#include <functional>
+
 #include "Grid.hpp"
 #include "MaterialPoints.hpp"
 #include "PhantomNodes.hpp"
 
 namespace emp {
+
+/// The support of single points (their nodes and weights, phantom twins across cracks included),
+/// for conditions that act through the points (contact, BodyContact.hpp). One call per point:
+/// meant for the few points a condition touches, not for every point.
+template <int D> class PointSupport {
+public:
+    virtual ~PointSupport() = default;
+    /// Calls f(node index, N) for every node of point p's support.
+    virtual void forEachNode(int p, const std::function<void(int, double)>& f) const = 0;
+    /// Half-width of a point's domain, m (uGIMP's particle half-width; half the point spacing).
+    virtual double halfWidth() const = 0;
+};
 
 /// What a condition sees at its point of the step.
 template <int D> struct GridState {
@@ -27,6 +41,7 @@ template <int D> struct GridState {
     const PhantomNodes<D>& phantom;  ///< twins of the marked nodes (pre-existing cracks)
     double time;                     ///< t^{n-1/2} after the nodal velocity, t^{n+1/2} after forces
     double dt;
+    const PointSupport<D>* support = nullptr;  ///< the points' supports (set after the forces)
 };
 
 template <int D> class GridCondition {

@@ -347,7 +347,12 @@ template <int D, class K> void Solver<D, K>::tractionForces()
 
 template <int D, class K> void Solver<D, K>::applyConditionsAfterForces(double dt)
 {
-    GridState<D> s{grid_, points_, phantom_, time_ + 0.5 * dt, dt};
+    const Support support(this);
+    GridState<D> s{grid_, points_, phantom_, time_ + 0.5 * dt, dt, &support};
+    if (contact_) {
+        contact_->afterForces(s);
+        contactWork_ += contact_->work;
+    }
     for (auto& c : conditions_) c->afterForces(s);
 }
 
@@ -707,7 +712,7 @@ template <int D, class K> double Solver<D, K>::elasticEnergy() const
 
 template <int D, class K> double Solver<D, K>::externalWork() const
 {
-    double w = tractionWork_ + gravityWork_;
+    double w = tractionWork_ + gravityWork_ + contactWork_;
     for (const auto& c : velocityConditions_) w += c->work;
     return w;
 }

@@ -13,6 +13,7 @@
 #include <memory>
 #include <vector>
 
+#include "BodyContact.hpp"
 #include "BoundaryConditions.hpp"
 #include "Configurations.hpp"
 #include "EigenErosion.hpp"
@@ -81,6 +82,10 @@ public:
     /// fracture work at all.
     void setErosion(std::shared_ptr<EigenErosion<D>> e) { erosion_ = std::move(e); }
     const std::shared_ptr<EigenErosion<D>>& erosion() const { return erosion_; }
+    /// Attaches contact with rigid bodies (BodyContact.hpp), or detaches it with nullptr. It acts
+    /// after the forces, before the other grid conditions; its work adds to externalWork().
+    void setContact(std::shared_ptr<BodyContact<D>> c) { contact_ = std::move(c); }
+    const std::shared_ptr<BodyContact<D>>& contact() const { return contact_; }
     /// Adds a pre-existing crack (2D: polyline; 3D: planar polygon; z ignored in 2D); returns its
     /// id. Its vertices then move with the material.
     int addCrack(const std::vector<Eigen::Vector3d>& vertices);
@@ -120,7 +125,7 @@ public:
     /// leapfrog's own energy, which a linear oscillator conserves exactly. 0 before a step.
     double kineticEnergyAtStep() const { return kineticAtStep_; }
     /// Work done on the points up to the last step by the velocity conditions (their reaction
-    /// forces), the tractions and gravity, J; each step adds f . (v^{n-1/2} + v^{n+1/2}) dt / 2 at
+    /// forces), the tractions, gravity and contact, J; each step adds f . (v^{n-1/2} + v^{n+1/2}) dt / 2 at
     /// the nodes.
     double externalWork() const;
     /// Total linear momentum sum m_p v_p (3 components; z = 0 in 2D).
@@ -190,6 +195,21 @@ private:
     Vec<D> domainLo_, domainHi_;
     double massCutoffAbs_ = 0;
     std::shared_ptr<EigenErosion<D>> erosion_;
+    std::shared_ptr<BodyContact<D>> contact_;
+    /// The points' supports for the conditions (GridState::support).
+    class Support : public PointSupport<D> {
+    public:
+        explicit Support(Solver* s) : s_(s) {}
+        void forEachNode(int p, const std::function<void(int, double)>& f) const override
+        {
+            const St st = s_->stencilOf(p);
+            st.forEach(s_->grid_, [&](int I, double N, const Vec<D>&) { f(I, N); });
+        }
+        double halfWidth() const override { return s_->lp_ * s_->settings_.h; }
+
+    private:
+        Solver* s_;
+    };
     PhantomNodes<D> phantom_;
     int markedLo_[D] = {}, markedHi_[D] = {};  ///< box of the marked nodes, node indices
     std::vector<std::shared_ptr<VelocityCondition<D>>> velocityConditions_;
@@ -198,7 +218,7 @@ private:
     Scheduler<D> schedule_;
     std::vector<St> stencil_;  ///< stencil_[k] is that of point schedule_.order()[k] in this step
     double time_ = 0, maxSpeed_ = 0;
-    double kineticAtStep_ = 0, tractionWork_ = 0, gravityWork_ = 0;
+    double kineticAtStep_ = 0, tractionWork_ = 0, gravityWork_ = 0, contactWork_ = 0;
     std::int64_t steps_ = 0;
 };
 

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "BodyContact.hpp"
 #include "EigenErosion.hpp"
 #include "ErosionCalibration.hpp"
 #include "Errors.hpp"
@@ -116,6 +117,114 @@ template <int D> struct BindErosion {
             .add_property("searchedLastStep", &Er::searchedLastStep)
             .add_property("candidatesLastStep", &Er::candidatesLastStep)
             .def("events", &events);
+    }
+};
+
+Eigen::Matrix3d toMat3(const bp::object& o, const char* what)
+{
+    require(bp::len(o) == 3, std::string(what) + " (rows)", bp::len(o), "3 rows of 3");
+    Eigen::Matrix3d m;
+    for (int i = 0; i < 3; ++i) m.row(i) = toVec3(o[i], what).transpose();
+    return m;
+}
+
+/// The contact stage (BodyContact.hpp). The Python engine (eigenmpm.contact) refills its bodies
+/// and shapes from YADE before each step and reads the forces back after it.
+template <int D> struct BindContact {
+    using C = BodyContact<D>;
+    static std::shared_ptr<C> make(double friction)
+    {
+        require(std::isfinite(friction) && friction >= 0, "friction", friction, "0 <= friction < inf");
+        auto c = std::make_shared<C>();
+        c->friction = friction;
+        return c;
+    }
+    static void clear(C& c)
+    {
+        c.shapes.clear();
+        c.bodies.clear();
+    }
+    static int addBody(C& c, bp::object centre, bp::object velocity, bp::object angularVelocity,
+                       bp::object invMass, bp::object invInertia)
+    {
+        RigidBody b;
+        b.centre = toVec3(centre, "body centre");
+        b.velocity = toVec3(velocity, "body velocity");
+        b.angularVelocity = toVec3(angularVelocity, "body angular velocity");
+        b.invMass = toVec3(invMass, "body inverse mass");
+        b.invInertia = toMat3(invInertia, "body inverse inertia");
+        c.bodies.push_back(b);
+        return static_cast<int>(c.bodies.size()) - 1;
+    }
+    static RigidShape shape(C& c, int body, int kind)
+    {
+        require(body >= 0 && body < static_cast<int>(c.bodies.size()), "body index", body, "an added body");
+        RigidShape s;
+        s.body = body;
+        s.kind = kind;
+        return s;
+    }
+    static void addSphere(C& c, int body, bp::object centre, double radius)
+    {
+        RigidShape s = shape(c, body, RigidShape::sphere);
+        s.a = toVec3(centre, "sphere centre");
+        s.radius = radius;
+        c.shapes.push_back(s);
+    }
+    static void addWall(C& c, int body, bp::object point, bp::object normal, bool twoSided)
+    {
+        RigidShape s = shape(c, body, RigidShape::wall);
+        s.a = toVec3(point, "wall point");
+        s.b = toVec3(normal, "wall normal").normalized();
+        s.twoSided = twoSided;
+        c.shapes.push_back(s);
+    }
+    static void addFacet(C& c, int body, bp::object a, bp::object b, bp::object v)
+    {
+        RigidShape s = shape(c, body, RigidShape::facet);
+        s.a = toVec3(a, "facet vertex");
+        s.b = toVec3(b, "facet vertex");
+        s.c = toVec3(v, "facet vertex");
+        c.shapes.push_back(s);
+    }
+    static void addBox(C& c, int body, bp::object centre, bp::object halfExtents, bp::object rotation)
+    {
+        RigidShape s = shape(c, body, RigidShape::box);
+        s.a = toVec3(centre, "box centre");
+        s.b = toVec3(halfExtents, "box half extents");
+        s.rotation = toMat3(rotation, "box rotation");
+        c.shapes.push_back(s);
+    }
+    static bp::tuple force(const C& c, int i)
+    {
+        require(i >= 0 && i < static_cast<int>(c.bodies.size()), "body index", i, "an added body");
+        return fromVec3(c.bodies[i].force);
+    }
+    static bp::tuple torque(const C& c, int i)
+    {
+        require(i >= 0 && i < static_cast<int>(c.bodies.size()), "body index", i, "an added body");
+        return fromVec3(c.bodies[i].torque);
+    }
+    static void expose(const char* name)
+    {
+        bp::class_<C, std::shared_ptr<C>, boost::noncopyable>(name, bp::no_init)
+            .def("__init__", bp::make_constructor(&make, bp::default_call_policies(), (bp::arg("friction"))))
+            .add_property("friction", +[](const C& c) { return c.friction; })
+            .add_property("work", +[](const C& c) { return c.work; }, "work of the contact forces on the points in the last step, J")
+            .add_property("pointsInContact", +[](const C& c) { return c.pointsInContact; })
+            .add_property("nodesInContact", +[](const C& c) { return c.nodesInContact; })
+            .add_property("numBodies", +[](const C& c) { return static_cast<int>(c.bodies.size()); })
+            .add_property("numShapes", +[](const C& c) { return static_cast<int>(c.shapes.size()); })
+            .add_property("address", +[](const C& c) { return reinterpret_cast<std::uintptr_t>(&c); })
+            .def("clear", &clear)
+            .def("addBody", &addBody, (bp::arg("centre"), bp::arg("velocity"), bp::arg("angularVelocity"),
+                                       bp::arg("invMass"), bp::arg("invInertia")))
+            .def("addSphere", &addSphere, (bp::arg("body"), bp::arg("centre"), bp::arg("radius")))
+            .def("addWall", &addWall, (bp::arg("body"), bp::arg("point"), bp::arg("normal"), bp::arg("twoSided")))
+            .def("addFacet", &addFacet, (bp::arg("body"), bp::arg("a"), bp::arg("b"), bp::arg("c")))
+            .def("addBox", &addBox, (bp::arg("body"), bp::arg("centre"), bp::arg("halfExtents"), bp::arg("rotation")))
+            .def("force", &force, "force of the points on body i in the last step, N")
+            .def("torque", &torque, "its moment about the body's centre, N m");
     }
 };
 
@@ -302,6 +411,14 @@ template <class Sv> struct Bind {
         }
         s.setErosion(bp::extract<std::shared_ptr<EigenErosion<D>>>(e)());
     }
+    static void setContact(Sv& s, bp::object c)
+    {
+        if (c.is_none()) {
+            s.setContact(nullptr);
+            return;
+        }
+        s.setContact(bp::extract<std::shared_ptr<BodyContact<D>>>(c)());
+    }
     static np::ndarray energyReleaseRate(Sv& s, bp::object ids, bool bruteForce)
     {
         require(s.erosion() != nullptr, "erosion", "none attached", "attach an EigenErosion first");
@@ -420,6 +537,10 @@ template <class Sv> struct Bind {
             .def("gridShape", &gridShape)
             .def("gridOrigin", &gridOrigin)
             .def("setErosion", &setErosion)
+            .def("setContact", &setContact)
+            .add_property("contact", +[](const Sv& s) { return s.contact(); })
+            .add_property("halfWidth", +[](const Sv& s) { return s.halfWidth() * s.settings().h; },
+                          "half-width of a point's domain, m")
             .def("addCrack", &addCrack)
             .def("crackVertices", &crackVertices)
             .add_property("numCracks", +[](const Sv& s) { return static_cast<int>(s.phantomNodes().numCracks()); })
@@ -464,6 +585,8 @@ BOOST_PYTHON_MODULE(_eigenmpm)
             "mixed field K_I = cos, K_II = sin of that angle (G = K_I^2 + K_II^2 over E'), instead of mode.");
     BindErosion<2>::expose("Erosion2");
     BindErosion<3>::expose("Erosion3");
+    BindContact<2>::expose("Contact2");
+    BindContact<3>::expose("Contact3");
     // One class per configuration (Configurations.hpp), named Solver<D><Kernel name>, and the
     // dict solvers[(dim, kernel name in lower case)] = class for the engines.
     bp::dict solvers;

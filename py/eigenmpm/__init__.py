@@ -12,6 +12,7 @@ Put the engines in ``O.engines`` beside YADE's own::
 """
 from . import checkpoint
 from .checkpoint import Checkpoint
+from .contact import BodyContact
 from .dem import DemMpmPair, calibrate as calibrateDem, uniaxialTension
 from .engines import MpmEngine, VelocityBC, callEvery, criticalTimeStep, findEngine, mpmEngines
 from .fracture import EigenErosion, kappaRange
@@ -20,7 +21,7 @@ from .recorders import PlotRecorder, Progress, VTKRecorder
 
 __all__ = ["MpmEngine", "EigenErosion", "kappaRange", "VelocityBC", "ElasticMaterial", "VTKRecorder",
            "PlotRecorder", "Progress", "callEvery", "criticalTimeStep", "findEngine", "mpmEngines",
-           "DemMpmPair", "calibrateDem", "uniaxialTension", "Checkpoint"]
+           "DemMpmPair", "calibrateDem", "uniaxialTension", "Checkpoint", "BodyContact"]
 
 from . import state as _state  # noqa: E402
 

@@ -537,6 +537,10 @@ class MpmEngine(PyRunner):
                 if any(rec is e for e in engines) and not rec.dead:
                     rec.onFailure(self, err)
             raise
+        for phys in list(self.physics.values()):  # e.g. BodyContact: the forces on YADE's bodies
+            after = getattr(phys, "afterStep", None)
+            if after is not None:
+                after(self)
 
     def _restored(self):
         """After eigenmpm.state restored this engine: materials are keyed by object identity,

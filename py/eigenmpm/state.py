@@ -61,6 +61,10 @@ def _isErosion(x):
     return type(x) in (_eigenmpm.Erosion2, _eigenmpm.Erosion3)
 
 
+def _isContact(x):
+    return type(x) in (_eigenmpm.Contact2, _eigenmpm.Contact3)
+
+
 _SOLVER_TYPES = tuple(_eigenmpm.solvers.values())
 _PROXIES = (weakref.ProxyType, weakref.CallableProxyType)
 
@@ -95,6 +99,8 @@ class _Pickler(pickle.Pickler):
                 if s.erosion is not None and s.erosion.address == obj.address:
                     return ("erosion", k)
             raise StateError("EigenMPM: cannot save an erosion stage that no saved solver holds")
+        if _isContact(obj):  # refilled from O.bodies before every step: only its setting matters
+            return ("contact", (type(obj) is _eigenmpm.Contact2, obj.friction))
         return None
 
 
@@ -114,6 +120,9 @@ class _Unpickler(pickle.Unpickler):
             return self._solvers[k]
         if kind == "erosion":
             return self._solvers[k].erosion
+        if kind == "contact":
+            planar, friction = k
+            return (_eigenmpm.Contact2 if planar else _eigenmpm.Contact3)(friction=friction)
         raise StateError(f"EigenMPM: the snapshot refers to an unknown object {pid!r}")
 
 

@@ -167,7 +167,7 @@ def test_saved_solver_state_of_another_version_is_refused():
     O.run(5, True)
     data = bytearray(mpm.solver.saveState())
     data[8 + len("EigenMPM solver state")] += 1
-    with pytest.raises(RuntimeError, match="format version 3"):
+    with pytest.raises(RuntimeError, match="format version 4"):
         em._eigenmpm.solverFromState(bytes(data))
 
 

@@ -1,0 +1,194 @@
+// Contact with rigid bodies (BodyContact.hpp): the shapes' closest points, non-penetration, the
+// exact exchange of momentum with a body of finite mass, and the Coulomb cap of the friction.
+#include <memory>
+
+#include "test_helpers.hpp"
+
+namespace {
+
+using emp::RigidBody;
+using emp::RigidShape;
+using emp::Vec;
+using V3 = Eigen::Vector3d;
+
+void expectClosest(const RigidShape& s, const V3& x, double phi, const V3& point, const V3& normal)
+{
+    double f;
+    V3 p, n;
+    s.closest(x, f, p, n);
+    EXPECT_NEAR(f, phi, 1e-14) << x.transpose();
+    EXPECT_LE((p - point).norm(), 1e-14) << p.transpose() << " | " << point.transpose();
+    EXPECT_LE((n - normal).norm(), 1e-14) << n.transpose() << " | " << normal.transpose();
+}
+
+TEST(ContactShapes, ClosestPointsAndNormals)
+{
+    RigidShape sphere;
+    sphere.kind = RigidShape::sphere;
+    sphere.a = V3(1, 2, 3);
+    sphere.radius = 0.5;
+    expectClosest(sphere, V3(1, 4, 3), 1.5, V3(1, 2.5, 3), V3(0, 1, 0));
+    expectClosest(sphere, V3(1.25, 2, 3), -0.25, V3(1.5, 2, 3), V3(1, 0, 0));  // inside
+
+    RigidShape wall;  // the plane y = 1, acting upwards (YADE's sense = +1)
+    wall.kind = RigidShape::wall;
+    wall.a = V3(0, 1, 0);
+    wall.b = V3(0, 1, 0);
+    expectClosest(wall, V3(3, 1.5, -2), 0.5, V3(3, 1, -2), V3(0, 1, 0));
+    expectClosest(wall, V3(3, 0.75, -2), -0.25, V3(3, 1, -2), V3(0, 1, 0));  // behind: penetrated
+    wall.twoSided = true;
+    expectClosest(wall, V3(3, 0.75, -2), 0.25, V3(3, 1, -2), V3(0, -1, 0));
+
+    RigidShape facet;  // the triangle (0,0,0), (1,0,0), (0,1,0)
+    facet.kind = RigidShape::facet;
+    facet.a = V3(0, 0, 0);
+    facet.b = V3(1, 0, 0);
+    facet.c = V3(0, 1, 0);
+    expectClosest(facet, V3(0.25, 0.25, 2), 2, V3(0.25, 0.25, 0), V3(0, 0, 1));   // face
+    expectClosest(facet, V3(-1, -1, 0), std::sqrt(2.0), V3(0, 0, 0), V3(-1, -1, 0).normalized());  // vertex
+    expectClosest(facet, V3(1, 1, 0), std::sqrt(0.5), V3(0.5, 0.5, 0), V3(1, 1, 0).normalized());  // edge
+
+    RigidShape box;  // 2 x 1 x 1, turned by 90 degrees about z
+    box.kind = RigidShape::box;
+    box.a = V3(0, 0, 0);
+    box.b = V3(1, 0.5, 0.5);
+    box.rotation = Eigen::AngleAxisd(M_PI / 2, V3::UnitZ()).toRotationMatrix();
+    expectClosest(box, V3(0, 3, 0), 2, V3(0, 1, 0), V3(0, 1, 0));
+    expectClosest(box, V3(0.25, 0, 0), -0.25, V3(0.5, 0, 0), V3(1, 0, 0));  // inside: nearest face
+    // Bounds hold the shape.
+    V3 lo, hi;
+    box.bounds(lo, hi);
+    EXPECT_NEAR(hi[0], 0.5, 1e-14);
+    EXPECT_NEAR(hi[1], 1.0, 1e-14);
+    wall.twoSided = false;
+    wall.bounds(lo, hi);
+    EXPECT_EQ(hi[1], 1.0);
+    EXPECT_TRUE(std::isinf(lo[1]) && std::isinf(lo[0]) && std::isinf(hi[0]));
+}
+
+template <class C> struct ContactTest : ::testing::Test {};
+TYPED_TEST_SUITE(ContactTest, emptest::AllSolvers);
+
+/// A block of cells [3, 8)^D moving at `speed` along -y towards a wall, body or sphere below it.
+template <int D, class K> std::unique_ptr<emp::Solver<D, K>> fallingBlock(double speed, double tangential = 0)
+{
+    auto s = std::make_unique<emp::Solver<D, K>>(emptest::typicalSettings(0.01, 2));
+    const int mat = s->addMaterial(1e6, 0.3, 1000, false, emp::lawIndex("spectral"));
+    std::array<int, D> lo, hi;
+    lo.fill(3);
+    hi.fill(8);
+    emptest::addBlock<D>(*s, lo, hi, mat, [&](const Vec<D>&) {
+        Vec<D> v = Vec<D>::Zero();
+        v[0] = tangential;
+        v[1] = -speed;
+        return v;
+    });
+    s->setDomain(V3::Constant(-0.05), V3::Constant(0.15));
+    s->initialize();
+    return s;
+}
+
+/// A body with mass M (all directions free) carrying a wall y = y0 facing up.
+template <int D> std::shared_ptr<emp::BodyContact<D>> wallBody(double y0, double M, double friction = 0)
+{
+    auto c = std::make_shared<emp::BodyContact<D>>();
+    c->friction = friction;
+    RigidBody b;
+    b.centre = V3(0.05, y0 - 0.01, 0);
+    b.invMass = V3::Constant(M > 0 ? 1.0 / M : 0.0);
+    c->bodies.push_back(b);
+    RigidShape w;
+    w.kind = RigidShape::wall;
+    w.a = V3(0, y0, 0);
+    w.b = V3(0, 1, 0);
+    c->shapes.push_back(w);
+    return c;
+}
+
+TYPED_TEST(ContactTest, AFixedWallStopsTheBlockWithoutPenetration)
+{
+    constexpr int D = TypeParam::D;
+    using K = typename TypeParam::K;
+    auto s = fallingBlock<D, K>(1.0);
+    // The block's lowest points sit at y = 0.0325 (a quarter cell above its face y = 0.03).
+    auto contact = wallBody<D>(0.03, 0.0);
+    s->setContact(contact);
+    double lowest = 1, push = 0;
+    int touching = 0;
+    for (int n = 0; n < 200; ++n) {
+        s->step(0.2 * s->criticalTimeStep(), 1);
+        for (const auto& x : s->points().x) lowest = std::min(lowest, x[1]);
+        touching = std::max(touching, contact->pointsInContact);
+        push = std::min(push, contact->bodies[0].force[1]);
+    }
+    EXPECT_GT(touching, 0);
+    // The points stop a half-width (h/4 = 0.0025) above the wall, to within a step's travel.
+    EXPECT_GT(lowest, 0.03 + 0.0025 - 2e-4);
+    // A fixed body is pushed (down), and no momentum moves it.
+    EXPECT_LT(push, 0.0);
+    EXPECT_EQ(contact->bodies[0].velocity, V3::Zero());
+}
+
+TYPED_TEST(ContactTest, MomentumIsExchangedExactlyWithAFreeBody)
+{
+    constexpr int D = TypeParam::D;
+    using K = typename TypeParam::K;
+    auto s = fallingBlock<D, K>(1.0, 0.3);
+    const double blockMass = [&] {
+        double m = 0;
+        for (double mp : s->points().mass) m += mp;
+        return m;
+    }();
+    // A body as heavy as the block, at rest, its wall just under the block: it catches it.
+    auto contact = wallBody<D>(0.03, blockMass, 0.5);
+    s->setContact(contact);
+    // The stage updates the body's velocity in place with each impulse (YADE refills it before
+    // every step; here it is never refilled), so the points and the body keep their total
+    // momentum, step by step.
+    const double dt = 0.2 * s->criticalTimeStep();
+    for (int n = 0; n < 400; ++n) {
+        const V3 before = emptest::to3<D>(emptest::totalMomentum(s->points())) + blockMass * contact->bodies[0].velocity;
+        s->step(dt, 1);
+        V3 after = emptest::to3<D>(emptest::totalMomentum(s->points())) + blockMass * contact->bodies[0].velocity;
+        if (D == 2) after[2] = before[2];
+        ASSERT_LE((after - before).norm(), 1e-13 * blockMass) << "step " << n;
+    }
+    EXPECT_GT(contact->pointsInContact, 0);
+    // Over the whole run the body's velocity (updated by the impulses, never refilled here)
+    // carries exactly the momentum the points lost.
+    const Vec<D> p = emptest::totalMomentum(s->points());
+    const V3 body = blockMass * contact->bodies[0].velocity;
+    V3 total = emptest::to3<D>(p) + body;
+    if (D == 2) total[2] = 0;
+    const V3 initial = blockMass * V3(0.3, -1.0, 0);
+    EXPECT_LE((total - initial).norm(), 1e-12 * initial.norm()) << total.transpose();
+    // The body was pushed down and along by friction.
+    EXPECT_LT(contact->bodies[0].velocity[1], -0.1);
+    EXPECT_GT(contact->bodies[0].velocity[0], 0.0);
+}
+
+TYPED_TEST(ContactTest, FrictionNeverExceedsMuTimesTheNormalForce)
+{
+    constexpr int D = TypeParam::D;
+    using K = typename TypeParam::K;
+    for (double mu : {0.0, 0.2, 5.0}) {
+        auto s = fallingBlock<D, K>(1.0, 2.0);
+        auto contact = wallBody<D>(0.03, 0.0, mu);
+        s->setContact(contact);
+        double maxRatio = 0;
+        bool touched = false;
+        for (int n = 0; n < 150; ++n) {
+            s->step(0.2 * s->criticalTimeStep(), 1);
+            const V3 f = contact->bodies[0].force;
+            if (f[1] < 0) {  // the block pushes the wall down
+                touched = true;
+                maxRatio = std::max(maxRatio, std::fabs(f[0]) / -f[1]);
+            }
+        }
+        EXPECT_TRUE(touched);
+        EXPECT_LE(maxRatio, mu + 1e-12) << "mu " << mu;
+        if (mu == 0.2) EXPECT_GT(maxRatio, 0.19);  // sliding: the cap is reached
+    }
+}
+
+}  // namespace
