@@ -1,0 +1,178 @@
+"""Contact with YADE's bodies (eigenmpm.BodyContact, issue 16): the verification scripts' quick
+modes against their closed forms, forces both ways in the same step (spheres, walls, facets,
+boxes, clumps; 2D and 3D), the energy balance with the contact's work, save/load continuing
+bitwise, and clear refusals."""
+import json
+import os
+import subprocess
+
+import numpy as np
+import pytest
+from yade import O, pack, utils
+from yade.wrapper import ForceResetter, FrictMat, NewtonIntegrator
+
+import eigenmpm as em
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+
+def run_example(name, tmp_path, *args):
+    script = os.path.join(ROOT, "examples", "verification", name + ".py")
+    env = dict(os.environ, PYTHONPATH=os.path.join(ROOT, "build", "python"))
+    res = subprocess.run(["yade", "-n", "-x", script, "--out", str(tmp_path), *args], env=env,
+                         capture_output=True, text=True, timeout=300, stdin=subprocess.DEVNULL)
+    assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
+    return json.load(open(tmp_path / "summary.json"))
+
+
+def test_sliding_block_decelerates_at_mu_g(tmp_path):
+    s = run_example("sliding_block", tmp_path, "--quick", "plot=0")
+    # measured at h = 4 mm: 1.00001, stop 1.013 (records every 1/400 of the run), normal 1.010
+    assert abs(s["deceleration_over_mu_g"] - 1) < 0.01
+    assert abs(s["stop_time_over_closed_form"] - 1) < 0.03
+    assert abs(s["mean_normal_force_over_weight"] - 1) < 0.03
+
+
+def test_frictionless_block_keeps_sliding(tmp_path):
+    s = run_example("sliding_block", tmp_path, "--quick", "plot=0", "mu=0")
+    assert abs(s["deceleration_m_s2"]) < 1e-3 * 9.81
+    assert s["stop_time_s"] is None
+
+
+def test_sphere_impact_conserves_momentum_and_energy(tmp_path):
+    s = run_example("sphere_impact", tmp_path, "--quick", "plot=0")
+    assert s["momentum_change_rel"] < 1e-12  # the impulses are exchanged exactly
+    assert abs(s["energy_change_rel"]) < 0.01  # measured -0.2 % at h = 1 mm (the quick mode)
+    assert s["peak_force_N"] > 0 and s["contact_time_s"] > 0
+
+
+def block2d(h=0.002, **kw):
+    mpm = em.MpmEngine(dim=2, h=h, thickness=0.01, label="block",
+                       domain=((-0.02, -0.02, 0), (0.06, 0.06, 0)), **kw)
+    mpm.fill(pack.inAlignedBox((0, 0, -1), (0.04, 0.02, 1)), em.ElasticMaterial(E=1e7, nu=0.3, rho=1000))
+    return mpm
+
+
+def test_a_falling_clump_lands_on_the_block_and_pushes_it():
+    mpm = block2d()
+    steel = O.materials.append(FrictMat(density=7800, young=2e11))
+    a = utils.sphere((0.015, 0.026, 0), 0.004, material=steel)
+    b = utils.sphere((0.025, 0.026, 0), 0.004, material=steel)
+    clump, members = O.bodies.appendClumped([a, b])
+    O.bodies[clump].state.vel = (0, -2.0, 0)
+    contact = em.BodyContact(engine=mpm)
+    O.engines = [ForceResetter(), mpm, contact, NewtonIntegrator(damping=0)]
+    O.dt = 0.4 * mpm.criticalTimeStep()
+    p0 = O.bodies[clump].state.mass * np.array(O.bodies[clump].state.vel)[:2] + np.array(mpm.linearMomentum())[:2]
+    for _ in range(300):
+        O.run(1, True)
+        assert O.bodies[clump].state.pos[1] - 0.004 > 0.02 - 0.002  # never deep into the block
+    # The clump was stopped (by the forces on the clump itself), the block took its momentum.
+    assert O.bodies[clump].state.vel[1] > -1.0
+    assert mpm.linearMomentum()[1] < -0.1 * abs(p0[1])
+    p = O.bodies[clump].state.mass * np.array(O.bodies[clump].state.vel)[:2] + np.array(mpm.linearMomentum())[:2]
+    assert np.allclose(p, p0, rtol=0, atol=1e-9 * abs(p0[1]))
+    assert contact.history and max(abs(f[1]) for _, f, _ in contact.history) > 0
+
+
+@pytest.mark.parametrize("shape", ["facet", "box", "wall"])
+def test_each_shape_holds_a_block_under_gravity(shape):
+    mpm = block2d(gravity=(0, -9.81, 0))
+    # Each shape's top at y = 0, under the block's face.
+    if shape == "facet":  # a triangle in the plane y = 0 crossing the plane z = 0
+        body = O.bodies.append(utils.facet([(-0.05, 0, -1), (0.1, 0, -1), (0.02, 0, 1)], fixed=True))
+    elif shape == "box":
+        body = O.bodies.append(utils.box((0.02, -0.01, 0), (0.05, 0.01, 0.05), fixed=True))
+    else:
+        body = O.bodies.append(utils.wall((0, 0, 0), axis=1, sense=0))
+    contact = em.BodyContact(engine=mpm)
+    O.engines = [ForceResetter(), mpm, contact, NewtonIntegrator(damping=0)]
+    O.dt = 0.4 * mpm.criticalTimeStep()
+    O.run(2000, True)
+    y = mpm.solver.positions()[:, 1]
+    assert y.min() > 0  # resting on it, not through it
+    weight = np.sum(mpm.solver.mass()) * 9.81
+    forces = [f[1] for _, f, _ in contact.history[-500:]]
+    assert abs(-np.mean(forces) / weight - 1) < 0.1
+    assert abs(contact.force(body)[1]) > 0 or any(forces)
+
+
+def test_a_sphere_bounces_off_a_3d_block():
+    mpm = em.MpmEngine(dim=3, h=0.004, label="cube", domain=((-0.01, -0.01, -0.01), (0.03, 0.05, 0.03)))
+    mpm.fill(pack.inAlignedBox((0, 0, 0), (0.02, 0.012, 0.02)), em.ElasticMaterial(E=1e7, nu=0.3, rho=1000))
+    mpm.fix(region=pack.inAlignedBox((-1, -1, -1), (1, 0.0001, 1)))
+    steel = O.materials.append(FrictMat(density=7800, young=2e11))
+    ball = O.bodies.append(utils.sphere((0.01, 0.012 + 0.006, 0.01), 0.005, material=steel))
+    O.bodies[ball].state.vel = (0, -1.0, 0)
+    contact = em.BodyContact(engine=mpm, friction=0.2)
+    O.engines = [ForceResetter(), mpm, contact, NewtonIntegrator(damping=0)]
+    O.dt = 0.4 * mpm.criticalTimeStep()
+    O.run(1500, True)
+    assert O.bodies[ball].state.vel[1] > 0  # bounced
+    assert O.bodies[ball].state.pos[1] > 0.012
+    assert any(f[1] > 0 for _, f, _ in contact.history)  # the block pushed the ball up
+
+
+def test_contact_work_enters_the_energy_balance():
+    mpm = block2d()
+    steel = O.materials.append(FrictMat(density=7800, young=2e11))
+    ball = O.bodies.append(utils.sphere((0.02, 0.0265, 0), 0.006, material=steel))
+    O.bodies[ball].state.vel = (0, -3.0, 0)
+    O.engines = [ForceResetter(), mpm, em.BodyContact(engine=mpm), NewtonIntegrator(damping=0)]
+    O.dt = 0.4 * mpm.criticalTimeStep()
+    ek0 = 0.5 * O.bodies[ball].state.mass * 9.0
+    O.run(400, True)
+    b = mpm.energyBalance()
+    ek = 0.5 * O.bodies[ball].state.mass * O.bodies[ball].state.vel.squaredNorm()
+    assert b["Wext"] > 0.1 * ek0  # the sphere did work on the block
+    assert abs(b["balance"]) < 0.02 * b["Wext"]  # the block's energy is that work
+    assert abs((ek0 - ek) - b["Wext"]) < 0.05 * ek0  # what the sphere lost (time levels differ)
+
+
+def test_save_and_load_continue_bitwise_with_contact():
+    def scene():
+        mpm = block2d(gravity=(0, -9.81, 0))
+        O.bodies.append(utils.wall((0, 0, 0), axis=1, sense=1))
+        steel = O.materials.append(FrictMat(density=7800, young=2e11))
+        O.bodies.append(utils.sphere((0.02, 0.027, 0), 0.006, material=steel))
+        O.bodies[1].state.vel = (0.5, -2.0, 0)
+        O.engines = [ForceResetter(), mpm, em.BodyContact(engine=mpm, friction=0.4),
+                     NewtonIntegrator(damping=0, gravity=(0, -9.81, 0))]
+        O.dt = 0.4 * mpm.criticalTimeStep()
+        return mpm
+
+    def result():
+        mpm = em.findEngine("block")
+        return np.concatenate([mpm.solver.positions().ravel(), mpm.solver.velocities().ravel(),
+                               np.array(O.bodies[1].state.pos), np.array(O.bodies[1].state.vel),
+                               [mpm.externalWork()]])
+
+    scene()
+    O.run(300, True)
+    straight = result()
+    O.reset()
+    scene()
+    O.run(150, True)
+    O.saveTmp("mid")
+    O.run(50, True)
+    O.loadTmp("mid")
+    O.run(150, True)
+    assert np.array_equal(result(), straight)
+
+
+def test_wrong_engine_order_and_bad_input_are_refused():
+    mpm = block2d()
+    O.bodies.append(utils.wall((0, 0, 0), axis=1, sense=1))
+    O.engines = [ForceResetter(), NewtonIntegrator(), mpm, em.BodyContact(engine=mpm)]
+    O.dt = 0.4 * mpm.criticalTimeStep()
+    with pytest.raises(Exception, match="before NewtonIntegrator"):
+        O.run(1, True)
+    with pytest.raises(ValueError, match="friction"):
+        em.BodyContact(engine=mpm, friction=-0.1)
+    O.reset()
+    mpm = block2d()
+    O.bodies.append(utils.wall((0, 0, 0), axis=1, sense=1))
+    O.engines = [ForceResetter(), mpm, em.BodyContact(engine=mpm, bodies=[5]), NewtonIntegrator()]
+    O.dt = 0.4 * mpm.criticalTimeStep()
+    with pytest.raises(Exception, match="not a body of O.bodies"):
+        O.run(1, True)
