@@ -24,7 +24,9 @@ Modelling choices (parameters in brackets):
   face's nodes, the faces bond and drag, points erode at the mouth and fly off. With the sharp
   notch alone (slitWidth_mm=0) at h = 1 mm, dt = 0.12 us: mouth erosion from about 93 us,
   point speeds above 800 m/s and a step above the critical one at about 116 us; the initial
-  angle was 66.7 deg instead of 70.0 deg. A machined notch has a finite width anyway.
+  angle was 66.7 deg instead of 70.0 deg. A machined notch has a finite width anyway. With
+  crackContact=1 (contact between the notch's faces, doc/contact.md) the sharp notch alone
+  (slitWidth_mm=0) works: see doc/contact.md for the numbers.
 - The impact is a velocity condition on the x component of the grid nodes nearest to the
   points of the left column (x < h/2) below the notch (y < notch - h/2), found anew each step
   as the points move (the paper's "monitoring the positions of boundary particles").
@@ -67,11 +69,12 @@ params: h_mm, kappaOverH, alpha, endTime_us, dt_us, v0_m_s, rampTime_us, slitWid
 slitLength_mm, stopAfter_us, initLength_mm, tipWindow_us, vtkPeriod_us, E, nu, rho, Gc, split (the
 tension/compression split of the strain energy: spectral, the paper's and the default; volumetric;
 none; see doc/fracture.md), transfer (the particle-grid transfer of MpmEngine: FLIP, the paper's
-and the default, or APIC) and stressUpdate (smallStrain, the paper's and the default, or
-corotational; doc/stability.md). Writes
+and the default, or APIC), stressUpdate (smallStrain, the paper's and the default, or
+corotational; doc/stability.md) and crackContact (0, the paper's and the default: the notch's
+faces pass through each other; 1: they touch, doc/contact.md). Writes
 DIR/summary.json (initiation_time_us, crack_angle_initial_deg, crack_angle_overall_deg,
 crack_angle_fit_deg, boundary_time_us, max_tip_speed_m_s, dissipated_energy_J, transfer,
-stress_update, particles,
+stress_update, crack_contact, particles,
 steps, wall_time_s, particle_steps_per_s, ...), DIR/damage.png, DIR/tip_speed.png (with the
 Rayleigh speed), DIR/energy.png, DIR/crack_path.csv and a VTK series DIR/vtk/plate-*.vtp.
 
@@ -105,7 +108,7 @@ from eigenmpm.fracture import linked
 DEFAULTS = dict(h_mm=0.5, kappaOverH=1.15, alpha=2.0, endTime_us=110.0, dt_us=0.01, v0_m_s=16.5,
                 rampTime_us=1.0, slitWidth_mm=1.0, slitLength_mm=40.0, stopAfter_us=2.0, initLength_mm=10.0,
                 tipWindow_us=2.0, vtkPeriod_us=10.0, E=190e9, nu=0.3, rho=8000.0, Gc=22130.0,
-                split="spectral", transfer="FLIP", stressUpdate="smallStrain")
+                split="spectral", transfer="FLIP", stressUpdate="smallStrain", crackContact=False)
 QUICK = dict(h_mm=1.0, dt_us=0.12)
 RAYLEIGH = 2803.0
 SIZE, NOTCH_LEN = 0.1, 0.05
@@ -126,7 +129,7 @@ def build(o):
     # its points outward by more than a few cells (at h = 0.5 mm a point left a 3-cell margin at 86 us).
     mpm = em.MpmEngine(dim=2, h=h, ppc=2, thickness=1.0, label="plate",
                        domain=((-0.005, -0.005, 0), (SIZE + 0.005, SIZE + 0.005, 0)),
-                       transfer=o["transfer"], stressUpdate=o["stressUpdate"])
+                       transfer=o["transfer"], stressUpdate=o["stressUpdate"], crackContact=o["crackContact"])
     steel = em.ElasticMaterial(E=o["E"], nu=o["nu"], rho=o["rho"], planeStress=False, split=o["split"])
     plate = pack.inAlignedBox((0, 0, 0), (SIZE, SIZE, 0))
     if o["slitWidth_mm"] > 0 and o["slitLength_mm"] > 0:
@@ -286,7 +289,8 @@ def main(argv):
                    eroded_count=s["eroded_count"], particles=n, steps=steps, wall_time_s=wall,
                    particle_steps_per_s=n * steps / wall, dt_s=O.dt, critical_dt_s=mpm.criticalTimeStep(),
                    elastic_energy_J=mpm.elasticEnergy(), kinetic_energy_J=mpm.kineticEnergy(),
-                   transfer=mpm.transfer, stress_update=mpm.stressUpdate, parameters=o, quick=quick)
+                   transfer=mpm.transfer, stress_update=mpm.stressUpdate, crack_contact=bool(mpm.crackContact),
+                   parameters=o, quick=quick)
     summary.update(end.summary())
     with open(os.path.join(out, "summary.json"), "w") as f:
         json.dump(summary, f, indent=2)

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 
 #include "Errors.hpp"
@@ -259,6 +260,29 @@ template <int D> int PhantomNodes<D>::map(const Vec<D>& x, int I, const Vec<D>& 
         if (t >= 0 && crosses(static_cast<int>(c), x, xI)) return t;
     }
     return I;
+}
+
+template <int D> void PhantomNodes<D>::nearest(int c, const Vec<D>& x, Vec<D>& point, Vec<D>& normal) const
+{
+    const auto& v = cracks_[c];
+    if constexpr (D == 2) {
+        double best = std::numeric_limits<double>::infinity();
+        for (std::size_t i = 0; i + 1 < v.size(); ++i) {
+            const Vec<2> d = v[i + 1] - v[i];
+            const double len2 = d.squaredNorm();
+            const double t = len2 > 0 ? std::clamp((x - v[i]).dot(d) / len2, 0.0, 1.0) : 0.0;
+            const Vec<2> q = v[i] + t * d;
+            const double dist = (x - q).squaredNorm();
+            if (dist < best) {
+                best = dist;
+                point = q;
+                normal = Vec<2>(-d[1], d[0]).normalized();
+            }
+        }
+    } else {
+        normal = newellNormal(v).normalized();
+        point = x - (x - v[0]).dot(normal) * normal;  // in the polygon's plane
+    }
 }
 
 template class PhantomNodes<2>;

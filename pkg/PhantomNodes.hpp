@@ -60,6 +60,10 @@ public:
     /// The twin that crack c gives node I, or -1.
     int twin(int c, int I) const { return mark_.empty() ? -1 : twin_[c * static_cast<std::size_t>(numNodes_) + I]; }
 
+    /// The point of crack c nearest to x and the crack's unit normal there (2D: left of the
+    /// nearest segment's direction; 3D: the polygon's Newell normal): the positive side.
+    void nearest(int c, const Vec<D>& x, Vec<D>& point, Vec<D>& normal) const;
+
     /// Whether the segment p-q crosses crack c (the rule above).
     bool crosses(int c, const Vec<D>& p, const Vec<D>& q) const;
 

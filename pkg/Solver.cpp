@@ -180,6 +180,7 @@ template <int D, class K> void Solver<D, K>::nodalVelocity(int nThreads)
 template <int D, class K> void Solver<D, K>::applyConditionsAfterVelocity(double dt)
 {
     GridState<D> s{grid_, points_, phantom_, std::max(time_ - 0.5 * dt, 0.0), dt};
+    if (crackContact_ && !phantom_.empty()) crackContact_->afterNodalVelocity(s);
     for (auto& c : conditions_) c->afterNodalVelocity(s);
 }
 
@@ -353,7 +354,19 @@ template <int D, class K> void Solver<D, K>::applyConditionsAfterForces(double d
         contact_->afterForces(s);
         contactWork_ += contact_->work;
     }
+    if (crackContact_ && !phantom_.empty()) crackContact_->afterForces(s);
     for (auto& c : conditions_) c->afterForces(s);
+}
+
+template <int D, class K> void Solver<D, K>::setCrackContact(bool on, double friction)
+{
+    require(std::isfinite(friction) && friction >= 0, "crackFriction", friction, "0 <= crackFriction < inf");
+    if (!on) {
+        crackContact_.reset();
+        return;
+    }
+    if (!crackContact_) crackContact_ = std::make_shared<CrackFaceContact<D>>();
+    crackContact_->friction = friction;
 }
 
 template <int D, class K> void Solver<D, K>::updateGrid(double dt, int nThreads)

@@ -15,6 +15,7 @@
 
 #include "BodyContact.hpp"
 #include "BoundaryConditions.hpp"
+#include "CrackFaceContact.hpp"
 #include "Configurations.hpp"
 #include "EigenErosion.hpp"
 #include "ElasticMaterial.hpp"
@@ -86,6 +87,11 @@ public:
     /// after the forces, before the other grid conditions; its work adds to externalWork().
     void setContact(std::shared_ptr<BodyContact<D>> c) { contact_ = std::move(c); }
     const std::shared_ptr<BodyContact<D>>& contact() const { return contact_; }
+    /// Contact between the faces of the pre-existing cracks (CrackFaceContact.hpp), with Coulomb
+    /// friction mu; without it (the paper's model) the faces pass through each other.
+    void setCrackContact(bool on, double friction);
+    /// The crack-face contact, or nullptr when it is off.
+    const std::shared_ptr<CrackFaceContact<D>>& crackContact() const { return crackContact_; }
     /// Adds a pre-existing crack (2D: polyline; 3D: planar polygon; z ignored in 2D); returns its
     /// id. Its vertices then move with the material.
     int addCrack(const std::vector<Eigen::Vector3d>& vertices);
@@ -196,6 +202,7 @@ private:
     double massCutoffAbs_ = 0;
     std::shared_ptr<EigenErosion<D>> erosion_;
     std::shared_ptr<BodyContact<D>> contact_;
+    std::shared_ptr<CrackFaceContact<D>> crackContact_;
     /// The points' supports for the conditions (GridState::support).
     class Support : public PointSupport<D> {
     public:

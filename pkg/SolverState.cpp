@@ -10,7 +10,7 @@ namespace emp {
 
 namespace {
 const char* kFormat = "EigenMPM solver state";
-constexpr std::uint32_t kVersion = 3;  // 2: transfer, stress update, energy diagnostics; 3: contact work
+constexpr std::uint32_t kVersion = 3;  // 2: transfer, stress update, energy diagnostics; 3: contact work, crack-face contact
 }  // namespace
 
 StateHeader readStateHeader(std::istream& is)
@@ -63,6 +63,8 @@ template <int D, class K> void Solver<D, K>::saveState(std::ostream& os) const
     w.value(tractionWork_);
     w.value(gravityWork_);
     w.value(contactWork_);
+    w.value(crackContact_ != nullptr);
+    w.value(crackContact_ ? crackContact_->friction : 0.0);
     w.value(grid_.origin);
     w.value(grid_.n);
 
@@ -151,7 +153,12 @@ template <int D, class K> std::shared_ptr<Solver<D, K>> Solver<D, K>::loadState(
         s->tractionWork_ = r.value<double>();
         s->gravityWork_ = r.value<double>();
     }
-    if (h.version >= 3) s->contactWork_ = r.value<double>();
+    if (h.version >= 3) {
+        s->contactWork_ = r.value<double>();
+        const bool crackContact = r.value<bool>();
+        const double friction = r.value<double>();
+        if (crackContact) s->setCrackContact(true, friction);
+    }
     const auto origin = r.value<Vec<D>>();
     const auto n = r.value<std::array<int, D>>();
     if (initialized) {

@@ -538,6 +538,9 @@ template <class Sv> struct Bind {
             .def("gridOrigin", &gridOrigin)
             .def("setErosion", &setErosion)
             .def("setContact", &setContact)
+            .def("setCrackContact", &Sv::setCrackContact, (bp::arg("on"), bp::arg("friction")))
+            .add_property("crackContactPairs", +[](const Sv& s) { return s.crackContact() ? s.crackContact()->pairsInContact : 0; },
+                          "(node, twin) pairs of the crack faces in contact after the forces of the last step")
             .add_property("contact", +[](const Sv& s) { return s.contact(); })
             .add_property("halfWidth", +[](const Sv& s) { return s.halfWidth() * s.settings().h; },
                           "half-width of a point's domain, m")

@@ -13,9 +13,11 @@ Run::
 
 params h_mm, W_mm, H_mm, E, mu, v0, g, dtFraction, plot. Writes DIR/summary.json:
 deceleration_m_s2 (least-squares slope of the mean velocity while it is between 0.9 v0 and
-0.1 v0; with mu = 0 over the run after its first tenth), deceleration_over_mu_g, stop_time_s (first record with mean speed below 1e-3 v0),
-stop_time_over_closed_form, mean_normal_force_over_weight (the wall's vertical force averaged
-over the sliding phase), particles, steps, wall_time_s; DIR/velocity.png. --quick: h = 4 mm.
+0.1 v0; with mu = 0 over the run after its first tenth), deceleration_over_mu_g, stop_time_s
+(first record with a mean speed below 1e-3 v0: the elastic block's last shear vibration
+delays it), stop_time_over_closed_form, stop_time_fit_over_closed_form (where the fitted line
+reaches 0), mean_normal_force_over_weight (the wall's vertical force in every step, averaged
+over the sliding interval), particles, steps, wall_time_s; DIR/velocity.png. --quick: h = 4 mm.
 """
 import json
 import math
@@ -64,18 +66,24 @@ def build(o):
 
 
 def summarize(record, o):
-    t, v, fy = (np.array(c) for c in zip(*record.series))
+    t, v, _ = (np.array(c) for c in zip(*record.series))
     v0, muG = o["v0"], o["mu"] * o["g"]
     # While sliding (with mu = 0: the whole run after its first tenth)
     sliding = (v < 0.9 * v0) & (v > 0.1 * v0) if muG > 0 else t > 0.1 * t[-1]
-    slope = float(np.polyfit(t[sliding], v[sliding], 1)[0]) if np.count_nonzero(sliding) > 2 else float("nan")
+    fit = np.polyfit(t[sliding], v[sliding], 1) if np.count_nonzero(sliding) > 2 else (float("nan"), float("nan"))
+    slope = float(fit[0])
     stopped = np.nonzero(v < 1e-3 * v0)[0]
     stop = float(t[stopped[0]]) if len(stopped) else None
+    # The wall's force in every step (BodyContact's history) over the same interval
+    ft = np.array([h[0] for h in record.contact.history])
+    fy = np.array([h[1][1] for h in record.contact.history])
+    window = (ft >= t[sliding].min()) & (ft <= t[sliding].max()) if np.any(sliding) else ft < 0
     weight = record.mass * o["g"]
     return {"deceleration_m_s2": -slope, "deceleration_over_mu_g": -slope / muG if muG > 0 else None,
             "stop_time_s": stop, "stop_time_closed_form_s": v0 / muG if muG > 0 else None,
             "stop_time_over_closed_form": stop * muG / v0 if stop is not None and muG > 0 else None,
-            "mean_normal_force_over_weight": float(-np.mean(fy[sliding]) / weight) if np.any(sliding) else None,
+            "stop_time_fit_over_closed_form": float(-fit[1] / fit[0]) * muG / v0 if muG > 0 else None,
+            "mean_normal_force_over_weight": float(-np.mean(fy[window]) / weight) if np.any(window) else None,
             "weight_N": weight}
 
 

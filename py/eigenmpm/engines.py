@@ -253,6 +253,11 @@ class MpmEngine(PyRunner):
                                                  "deformation gradient per point, the law on the co-rotated "
                                                  "strain: rotations make no stress; doc/stability.md)",
               choices=("smallStrain", "corotational"), fixed=True),
+        Param("crackContact", False, "", "the faces of the pre-existing cracks (crack()) touch: they separate "
+                                         "freely but do not pass through each other (doc/contact.md); off: "
+                                         "the paper's phantom nodes, whose faces interpenetrate", fixed=True),
+        Param("crackFriction", 0.0, "", "Coulomb friction coefficient between the faces of the pre-existing "
+                                        "cracks (with crackContact)", bounds="[0, inf)", fixed=True),
     )
 
     def __init__(self, **kw):
@@ -266,6 +271,8 @@ class MpmEngine(PyRunner):
                                                                transfer=self.transfer, stressUpdate=self.stressUpdate)
         if self.domain is not None:
             self.solver.setDomain(*self.domain)
+        if self.crackContact:
+            self.solver.setCrackContact(True, self.crackFriction)
         self.iterPeriod, self.initRun = 1, True
         self.command = _register(self)
         self.bcs = {}

@@ -192,3 +192,120 @@ TYPED_TEST(ContactTest, FrictionNeverExceedsMuTimesTheNormalForce)
 }
 
 }  // namespace
+
+namespace {
+
+/// A block of cells [3, 8) x [3, 9) (x [3, 8) in 3D) cut through by a phantom crack at y = 0.0601,
+/// its halves moving towards (closing) or away from each other at `speed`.
+template <int D, class K> std::unique_ptr<emp::Solver<D, K>> cutBlock(double speed, double slide = 0, bool cut = true)
+{
+    auto s = std::make_unique<emp::Solver<D, K>>(emptest::typicalSettings(0.01, 2));
+    const int mat = s->addMaterial(1e6, 0.3, 1000, false, emp::lawIndex("spectral"));
+    std::array<int, D> lo, hi;
+    lo.fill(3);
+    hi.fill(8);
+    hi[1] = 9;
+    const double yc = 0.0601;
+    emptest::addBlock<D>(*s, lo, hi, mat, [&](const Vec<D>& x) {
+        Vec<D> v = Vec<D>::Zero();
+        v[1] = x[1] > yc ? -speed : speed;
+        v[0] = x[1] > yc ? slide : -slide;
+        return v;
+    });
+    if (!cut) {
+    } else if constexpr (D == 2) {
+        s->addCrack({V3(0.0, yc, 0), V3(0.11, yc, 0)});
+    } else {
+        s->addCrack({V3(0.0, yc, 0.0), V3(0.11, yc, 0.0), V3(0.11, yc, 0.11), V3(0.0, yc, 0.11)});
+    }
+    s->setDomain(V3::Constant(-0.05), V3::Constant(0.15));
+    s->initialize();
+    return s;
+}
+
+/// Lowest y of the upper half's points minus the highest y of the lower half's (by initial side).
+template <int D> double gapAcross(const emp::MaterialPoints<D>& P, const std::vector<bool>& upper)
+{
+    double lowUpper = 1e9, highLower = -1e9;
+    for (std::size_t p = 0; p < P.size(); ++p)
+        (upper[p] ? lowUpper : highLower) = upper[p] ? std::min(lowUpper, P.x[p][1]) : std::max(highLower, P.x[p][1]);
+    return lowUpper - highLower;
+}
+
+}  // namespace
+
+TYPED_TEST(ContactTest, CrackFacesDoNotPassThroughEachOtherWithCrackContact)
+{
+    constexpr int D = TypeParam::D;
+    using K = typename TypeParam::K;
+    for (bool contact : {false, true}) {
+        auto s = cutBlock<D, K>(1.0);
+        s->setCrackContact(contact, 0.0);
+        std::vector<bool> upper;
+        for (const auto& x : s->points().x) upper.push_back(x[1] > 0.0601);
+        const Vec<D> p0 = emptest::totalMomentum(s->points());
+        double minGap = 1;
+        const double dt = 0.2 * s->criticalTimeStep();
+        for (int n = 0; n < 300; ++n) {
+            s->step(dt, 1);
+            minGap = std::min(minGap, gapAcross(s->points(), upper));
+        }
+        if (contact) {
+            // The faces close (the initial gap is one point spacing, 0.005) but never cross.
+            EXPECT_GT(minGap, 0.0) << "faces crossed";
+            EXPECT_LE((emptest::totalMomentum(s->points()) - p0).norm(), 1e-13);
+        } else {
+            EXPECT_LT(minGap, -0.002) << "without contact the faces pass through each other";
+        }
+    }
+}
+
+TYPED_TEST(ContactTest, OpeningCrackFacesTransmitNothing)
+{
+    // Faces moving apart: crack contact must not act at all (bitwise the same run).
+    constexpr int D = TypeParam::D;
+    using K = typename TypeParam::K;
+    auto a = cutBlock<D, K>(-1.0, 0.5);
+    auto b = cutBlock<D, K>(-1.0, 0.5);
+    b->setCrackContact(true, 0.3);
+    const double dt = 0.2 * a->criticalTimeStep();
+    for (int n = 0; n < 100; ++n) {
+        a->step(dt, 1);
+        b->step(dt, 1);
+    }
+    EXPECT_EQ(b->crackContact()->pairsInContact, 0);
+    for (std::size_t p = 0; p < a->points().size(); ++p) {
+        ASSERT_EQ(a->points().x[p], b->points().x[p]);
+        ASSERT_EQ(a->points().v[p], b->points().v[p]);
+    }
+}
+
+TYPED_TEST(ContactTest, ErodedPointsTransmitCompressionButNoTension)
+{
+    // An eroded band across a block (damage 0: the law keeps sigma- only) between two intact
+    // halves pushed together, then pulled apart.
+    constexpr int D = TypeParam::D;
+    using K = typename TypeParam::K;
+    for (double speed : {1.0, -1.0}) {
+        auto s = cutBlock<D, K>(0.0, 0.0, false);
+        auto& P = s->points();
+        std::vector<int> band;
+        for (std::size_t p = 0; p < P.size(); ++p)
+            if (std::fabs(P.x[p][1] - 0.06) < 0.006) {
+                P.damage[p] = 0.0;
+                band.push_back(static_cast<int>(p));
+            }
+        for (std::size_t p = 0; p < P.size(); ++p) P.v[p][1] = P.x[p][1] > 0.06 ? -speed * 0.1 : speed * 0.1;
+        const double dt = 0.2 * s->criticalTimeStep();
+        double extreme = 0;
+        for (int n = 0; n < 100; ++n) {
+            s->step(dt, 1);
+            for (int p : band) extreme = speed > 0 ? std::min(extreme, P.stress[p](1, 1)) : std::max(extreme, P.stress[p](1, 1));
+        }
+        if (speed > 0) {
+            EXPECT_LT(extreme, -1e3) << "compression is carried";
+        } else {
+            EXPECT_LE(extreme, 1e-9) << "no tension in the eroded band";
+        }
+    }
+}
