@@ -67,20 +67,31 @@ struct SpectralSplit {
         // (the pair's errors cancel to second order). The pair lives in the plane Q = I - P_k as
         // B = e - l_k P_k; its values m -+ r come from the trace and the norm of B's deviator in the
         // plane, with no cancellation, so a repeated pair (even at zero) is split exactly.
-        const int k = l(1) - l(0) >= l(2) - l(1) ? 0 : 2, a = k == 0 ? 1 : 0, b = k == 0 ? 2 : 1;
+        //
+        // The products below square the strains: strains far below 1e-154 (the leading edge of a
+        // wave, 1e-167 measured) would underflow the projector's denominator to 0. So the work is
+        // done on e scaled by a power of two to order 1 and scaled back: exact in binary floating
+        // point, so the result is bitwise what it was wherever nothing underflowed.
+        int exponent = 0;
+        std::frexp(e.cwiseAbs().maxCoeff(), &exponent);
+        const double down = std::ldexp(1.0, -exponent), up = std::ldexp(1.0, exponent);
+        const Mat<3> en = down * e;
+        const Vec<3> ls = down * l;
+        const int k = ls(1) - ls(0) >= ls(2) - ls(1) ? 0 : 2, a = k == 0 ? 1 : 0, b = k == 0 ? 2 : 1;
         const Mat<3> I = Mat<3>::Identity();
-        const Mat<3> Pk = (e - l(a) * I) * (e - l(b) * I) / ((l(k) - l(a)) * (l(k) - l(b)));
+        const Mat<3> Pk = (en - ls(a) * I) * (en - ls(b) * I) / ((ls(k) - ls(a)) * (ls(k) - ls(b)));
         const Mat<3> Q = I - Pk;
-        const Mat<3> B = e - l(k) * Pk;
-        const double m = 0.5 * (e.trace() - l(k));
+        const Mat<3> B = en - ls(k) * Pk;
+        const double m = 0.5 * (en.trace() - ls(k));
         const double r = std::sqrt(0.5 * (B - m * Q).squaredNorm());
         const double lminus = m - r, lplus = m + r;
-        ep = positivePart(l(k)) * Pk;
+        ep = positivePart(ls(k)) * Pk;
         if (lminus >= 0)
             ep += B;
         else if (lplus > 0)
             ep += (lplus / (2.0 * r)) * (B - lminus * Q);  // lplus times the projector on its vector
-        l << l(k), lminus, lplus;  // only the set of values is used below
+        ep *= up;
+        l << up * ls(k), up * lminus, up * lplus;  // only the set of values is used below
     }
 
     template <int D> EMP_ALWAYS_INLINE static LawResponse<D> response(const Mat<D>& eps, const ElasticMaterial& mat)

@@ -293,3 +293,21 @@ TYPED_TEST(RegisteredLawTest, CompressionErodesOnlyWhereTheLawAllowsIt)
 }
 
 }  // namespace
+
+TEST(SpectralSplit3D, StrainsNearTheUnderflowLimitStayFinite)
+{
+    // A strain measured at the leading edge of a wave in a 3D block (1e-167: its squares
+    // underflow). The split is homogeneous of degree one, so it must equal the split of the
+    // same strain scaled by 2^600, scaled back (exactly: powers of two).
+    Mat<3> e;
+    e << -1.1297743482343185e-169, 2.6459623682349524e-169, -1.1156509394571967e-167,
+        2.6459623682349524e-169, -5.7078050753008306e-169, 1.8831869776171252e-167,
+        -1.1156509394571967e-167, 1.8831869776171252e-167, -1.3077761272082003e-167;
+    Vec<3> l, lBig;
+    Mat<3> ep, epBig;
+    emp::SpectralSplit::tensilePart(e, l, ep);
+    emp::SpectralSplit::tensilePart(std::ldexp(1.0, 600) * e, lBig, epBig);
+    ASSERT_TRUE(ep.allFinite() && l.allFinite());
+    EXPECT_EQ(ep, std::ldexp(1.0, -600) * epBig);
+    EXPECT_GT(ep.cwiseAbs().maxCoeff(), 0.0);  // (norm() would underflow)
+}
