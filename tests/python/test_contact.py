@@ -243,3 +243,21 @@ def test_hertz_impact_quick_is_near_hertz(tmp_path):
     assert 0.7 < s["restitution"] <= 1.0
     assert 0.8 < s["peak_force_smoothed_over_hertz"] < 1.5
     assert 0.6 < s["contact_time_over_hertz"] < 1.1
+
+
+def test_a_box_moved_by_a_kinematic_engine_pushes_the_block():
+    from yade.wrapper import TranslationEngine
+    mpm = block2d()
+    box = O.bodies.append(utils.box((-0.006, 0.01, 0), (0.005, 0.02, 0.05), fixed=True))
+    push = TranslationEngine(ids=[box], translationAxis=(1, 0, 0), velocity=0.5)
+    contact = em.BodyContact(engine=mpm)
+    O.engines = [ForceResetter(), push, mpm, contact, NewtonIntegrator(damping=0)]
+    O.dt = 0.4 * mpm.criticalTimeStep()
+    for _ in range(15):
+        O.run(100, True)
+        face = O.bodies[box].state.pos[0] + 0.005
+        assert mpm.solver.positions()[:, 0].min() > face - 1e-4  # the box's face never passes the points
+    # A free elastic block struck by a piston moving at v leaves at up to 2 v (elastic): measured 0.9 m/s
+    v = mpm.solver.velocities()
+    assert 0.5 < np.mean(v[:, 0]) < 1.05
+    assert contact.force(box)[0] < 0 or any(f[0] < 0 for _, f, _ in contact.history)
