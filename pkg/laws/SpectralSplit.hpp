@@ -69,14 +69,17 @@ struct SpectralSplit {
         // plane, with no cancellation, so a repeated pair (even at zero) is split exactly.
         //
         // The products below square the strains: strains far below 1e-154 (the leading edge of a
-        // wave, 1e-167 measured) would underflow the projector's denominator to 0. So the work is
+        // wave in a 3D block, 1e-167 measured) would underflow the projector's denominator to 0. So the work is
         // done on e scaled by a power of two to order 1 and scaled back: exact in binary floating
         // point, so the result is bitwise what it was wherever nothing underflowed.
+        // Subnormal strains (1e-316 measured) need 2^1049: two finite factors.
         int exponent = 0;
         std::frexp(e.cwiseAbs().maxCoeff(), &exponent);
-        const double down = std::ldexp(1.0, -exponent), up = std::ldexp(1.0, exponent);
-        const Mat<3> en = down * e;
-        const Vec<3> ls = down * l;
+        const int half = -exponent / 2;
+        const double down1 = std::ldexp(1.0, half), down2 = std::ldexp(1.0, -exponent - half);
+        const double up = std::ldexp(1.0, exponent);
+        const Mat<3> en = (down1 * e) * down2;
+        const Vec<3> ls = (down1 * l) * down2;
         const int k = ls(1) - ls(0) >= ls(2) - ls(1) ? 0 : 2, a = k == 0 ? 1 : 0, b = k == 0 ? 2 : 1;
         const Mat<3> I = Mat<3>::Identity();
         const Mat<3> Pk = (en - ls(a) * I) * (en - ls(b) * I) / ((ls(k) - ls(a)) * (ls(k) - ls(b)));

@@ -310,4 +310,14 @@ TEST(SpectralSplit3D, StrainsNearTheUnderflowLimitStayFinite)
     ASSERT_TRUE(ep.allFinite() && l.allFinite());
     EXPECT_EQ(ep, std::ldexp(1.0, -600) * epBig);
     EXPECT_GT(ep.cwiseAbs().maxCoeff(), 0.0);  // (norm() would underflow)
+    // Subnormal strains (measured at h = 0.25 mm): finite, and again the scaled split.
+    Mat<3> s;
+    s << -4.3847247523105759e-316, 3.4946636632846807e-316, -4.3847247523105759e-316,
+        3.4946636632846807e-316, -2.6046025248522208e-316, 3.4946636632846807e-316,
+        -4.3847247523105759e-316, 3.4946636632846807e-316, -4.3847247523105759e-316;
+    emp::SpectralSplit::tensilePart(s, l, ep);
+    ASSERT_TRUE(ep.allFinite() && l.allFinite());
+    emp::SpectralSplit::tensilePart(std::ldexp(1.0, 1000) * s, lBig, epBig);
+    // (to the precision a subnormal carries: about 25 significant bits at 1e-316)
+    EXPECT_LE((std::ldexp(1.0, 1000) * ep - epBig).cwiseAbs().maxCoeff(), 1e-5 * epBig.cwiseAbs().maxCoeff());
 }
