@@ -9,7 +9,10 @@ along y: mixed mode, K_I = sigma sqrt(pi a) cos^2 beta, K_II = sigma sqrt(pi a) 
 and the whole specimen (plate, crack and load) can be turned by angle_deg
 about the plate's centre against the grid axes (grid bias again: the physics do not change). A traction in y on the
 points within h of the top and bottom edges rises linearly from 0 to ratioMax sigma_G over
-rampTransits wave transits W/c, slowly enough for the plate to follow quasi-statically. The run
+rampTransits wave transits W/c, slowly enough for the plate to follow quasi-statically; on a
+turned specimen the traction's layer (Eq 28) is the loaded points' area over W, so that each edge
+carries W times the traction (with the layer h, before 2026-12-02, a band turned by 45 degrees
+carried 5.6-6.3 % more). The run
 stops at the first erosion (eigenerosion, kappa = kappaOverH h) and reports the traction then,
 over Griffith's stress with Feddersen's finite-width correction,
 
@@ -52,6 +55,7 @@ alpha (a number or griffith), kappaOverH, rampTransits, ratioMax, dtFraction, pp
 starts a crack near sigma_G. Writes DIR/summary.json: initiation_ratio (traction at the first
 erosion / sigma_G), initiation_stress_Pa, griffith_stress_Pa, initiation_time_s, first_eroded
 (position, m), alpha_used, eroded_at_stop, a_over_h, particles, steps, wall_time_s (of this run),
+traction_layer_over_h (turned specimen: the layers of the top and bottom loads over h),
 resumed_from_iteration (0 unless --resume), ...
 Default DIR: out/griffith_initiation. --checkpoint-every N saves the scene every N iterations into
 DIR/checkpoints; --resume DIR/checkpoints, with the same parameters, continues from the newest one
@@ -178,6 +182,7 @@ def run(o, checkpoints=None, checkpointEvery=0, resume=None):
     c = math.sqrt(o["E"] * (1 - o["nu"]) / ((1 + o["nu"]) * (1 - 2 * o["nu"]) * o["rho"]))
     ramp = o["rampTransits"] * W / c
     t = o["ratioMax"] * sG
+    layers = [None, None]
     if resume:  # the scene as checkpointed (doc/restart.md)
         em.checkpoint.resume(resume)
         mpm, er = em.findEngine("plate"), next(e for e in O.engines if isinstance(e, em.EigenErosion))
@@ -196,8 +201,14 @@ def run(o, checkpoints=None, checkpointEvery=0, resume=None):
         else:
             mpm.crack([turn(*ends[0]), turn(*ends[1])])
         n = (-math.sin(angle) * t, math.cos(angle) * t, 0)
-        mpm.traction(points=top, traction=n, rampTime=ramp)
-        mpm.traction(points=bottom, traction=(-n[0], -n[1], 0), rampTime=ramp)
+        # Eq 28 gives each loaded point t V_p / layer; with layer = h the band's force is t times
+        # its points' area over h, which is W t along the grid but up to 6 % more on a turned one
+        # (at 45 degrees the band of width h holds three diagonal rows of points): the layer is
+        # set to that area over W, so that the force on each edge is W t at any angle.
+        layers = [None, None] if angle == 0 else \
+            [len(mpm.pointsIn(band)) * (h / int(o["ppc"])) ** 2 / W for band in (top, bottom)]
+        mpm.traction(points=top, traction=n, rampTime=ramp, layer=layers[0])
+        mpm.traction(points=bottom, traction=(-n[0], -n[1], 0), rampTime=ramp, layer=layers[1])
         er = em.EigenErosion(engine=mpm, Gc=o["Gc"], alpha=alpha, kappaOverH=o["kappaOverH"], iterPeriod=1)
         O.engines = [mpm, er]
         if int(o["kinkPoints"]) > 0:  # the energy balance during growth, every chunk of 20 steps
@@ -229,6 +240,8 @@ def run(o, checkpoints=None, checkpointEvery=0, resume=None):
     summary = dict(griffith_stress_Pa=sG, a_over_h=a / h, alpha_used=er.core.alpha, ramp_time_s=ramp,
                    particles=int(mpm.solver.numPoints), steps=int(mpm.solver.steps), wall_time_s=wall,
                    eroded_at_stop=er.erodedCount(), h_m=h, W_m=W, a_m=a, dt_s=O.dt, resumed_from_iteration=first)
+    if angle != 0 and not resume:
+        summary.update(traction_layer_over_h=[v / h for v in layers])
     if events:
         _, step, ti = min(events, key=lambda e: e[1])
         first = [p for p, s, _ in events if s == step]
