@@ -22,7 +22,7 @@ summary.
 
 Usage::
 
-    python3 tools/griffith_figures.py out/griffith/* [--outdir doc/img]
+    /usr/bin/python3.11 tools/griffith_figures.py out/prior_20261201 out/g [--outdir doc/img] [--ramps 80:2 60:1.5]
 """
 import argparse
 import glob

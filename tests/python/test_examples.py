@@ -104,6 +104,11 @@ def test_griffith_initiation_quick_starts_near_griffith_and_alpha_2_at_the_predi
     # Both tips start together (the plate and the crack are symmetric about x = W/2).
     xs = sorted(x for x, _ in g["first_eroded"])
     assert xs[0] + xs[-1] == pytest.approx(g["W_m"], abs=1e-9)
+    # tools/griffith_figures.py draws its two figures from these run directories.
+    import griffith_figures
+    griffith_figures.main([str(tmp_path), "--outdir", str(tmp_path / "img")])
+    for name in ("griffith_convergence.png", "griffith_grid_bias.png"):
+        assert os.path.getsize(tmp_path / "img" / name) > 10_000
 
 
 @pytest.mark.parametrize("extra", [["geometry=edge"], ["angle_deg=30", "tipShift=0.25"]])
