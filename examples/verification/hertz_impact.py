@@ -29,7 +29,6 @@ hertz_max_indentation_m, hertz_contact_radius_m, restitution (rebound over impac
 particles, steps, wall_time_s; DIR/force.png (force against time with Hertz's curve).
 --quick: h = 1 mm.
 """
-import json
 import math
 import os
 import sys
@@ -40,7 +39,8 @@ from yade import O, pack, utils
 from yade.wrapper import FrictMat, ForceResetter, NewtonIntegrator
 
 import eigenmpm as em
-from eigenmpm.cli import finish, runSteps, scriptArgs
+from eigenmpm import plots
+from eigenmpm.cli import finish, report, runSteps, scriptArgs
 
 DEFAULTS = dict(h_mm=0.25, L_mm=10.0, R_mm=5.0, v0=0.2, E=1e6, nu=0.3, rhoSphere=7800.0, dtFraction=0.4,
                 plot=True)
@@ -126,25 +126,16 @@ def summarize(record, o):
 
 
 def plot(out, record, o):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     t, f, _ = (np.array(c) for c in zip(*record.series))
     touching = np.nonzero(f > 0)[0]
-    t0 = t[touching[0]] if len(touching) else 0.0
-    fig, ax = plt.subplots(figsize=(6, 4))
-    ax.plot(1e3 * (t - t0), f, label="EigenMPM half-space, YADE sphere")
-    tt = np.linspace(0, max(t[-1] - t0, 1e-9), 400)
-    ax.plot(1e3 * tt, hertzCurve(o, tt), "k--", label="Hertz (quasi-static)")
-    ax.set_xlabel("time from first contact (ms)")
-    ax.set_ylabel("contact force (N)")
-    ax.set_title(f"Sphere on an elastic half-space, h = {o['h_mm']} mm")
-    ax.legend()
-    fig.tight_layout()
-    path = os.path.join(out, "force.png")
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    t = t - (t[touching[0]] if len(touching) else 0.0)
+    after = t >= 0
+    hertzForce = np.zeros_like(t)
+    hertzForce[after] = hertzCurve(o, t[after])
+    return plots.series(os.path.join(out, "force.png"), t,
+                        {"EigenMPM half-space, YADE sphere": f, "Hertz (quasi-static)": hertzForce},
+                        xlabel="time from first contact (ms)", ylabel="contact force (N)", tscale=1e3,
+                        title=f"Sphere on an elastic half-space, h = {o['h_mm']} mm")
 
 
 def main(argv):
@@ -162,13 +153,7 @@ def main(argv):
     n = mpm.solver.numPoints
     summary = {**summarize(record, o), "h_m": o["h_mm"] * 1e-3, "v0_m_s": o["v0"], "particles": int(n),
                "steps": int(mpm.solver.steps), "wall_time_s": wall_time, **end.summary()}
-    path = os.path.join(out, "summary.json")
-    with open(path, "w") as f:
-        json.dump(summary, f, indent=2)
-    print(json.dumps(summary, indent=2))
-    if o["plot"]:
-        print("plot:", plot(out, record, o))
-    print("summary:", path)
+    report(out, summary, (lambda: plot(out, record, o)) if o["plot"] else None)
     finish(end, out)
     return summary
 

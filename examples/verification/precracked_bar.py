@@ -38,7 +38,6 @@ checkpointed into its folder at the same period (that of the resumed bar's Check
 given). The outputs are those of the uninterrupted runs; only the wall times, which count the
 resumed part, differ.
 """
-import json
 import math
 import os
 import sys
@@ -48,7 +47,7 @@ import numpy as np
 from yade import O, pack
 
 import eigenmpm as em
-from eigenmpm.cli import checkpointArgs, finish, runSteps, scriptArgs
+from eigenmpm.cli import checkpointArgs, finish, report, runSteps, scriptArgs
 from eigenmpm.ramp import rampDisplacement
 
 DEFAULTS = dict(cells=40, ppc=2, transits=6.0, rampTransits=2.0, dtFraction=0.3, velocity=1.0, plot=True)
@@ -235,13 +234,7 @@ def main(argv):
     os.makedirs(out, exist_ok=True)
     checkpoints = resume or (os.path.join(out, "checkpoints") if every else None)
     summary, states, end = run(**opts, checkpoints=checkpoints, checkpointEvery=every, resume=bool(resume))
-    path = os.path.join(out, "summary.json")
-    with open(path, "w") as f:
-        json.dump(summary, f, indent=2)
-    print(json.dumps(summary, indent=2))
-    if opts["plot"]:
-        print("plot:", plot(out, states, summary))
-    print("summary:", path)
+    report(out, summary, (lambda: plot(out, states, summary)) if opts["plot"] else None)
     finish(end, out)
     return summary
 

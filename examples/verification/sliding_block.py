@@ -19,7 +19,6 @@ delays it), stop_time_over_closed_form, stop_time_fit_over_closed_form (where th
 reaches 0), mean_normal_force_over_weight (the wall's vertical force in every step, averaged
 over the sliding interval), particles, steps, wall_time_s; DIR/velocity.png. --quick: h = 4 mm.
 """
-import json
 import math
 import os
 import sys
@@ -30,7 +29,8 @@ from yade import O, pack, utils
 from yade.wrapper import ForceResetter, NewtonIntegrator
 
 import eigenmpm as em
-from eigenmpm.cli import finish, runSteps, scriptArgs
+from eigenmpm import plots
+from eigenmpm.cli import finish, report, runSteps, scriptArgs
 
 DEFAULTS = dict(h_mm=1.0, W_mm=40.0, H_mm=20.0, E=1e6, mu=0.3, v0=0.3, g=9.81, dtFraction=0.4, plot=True)
 QUICK = dict(h_mm=4.0)
@@ -88,22 +88,12 @@ def summarize(record, o):
 
 
 def plot(out, record, o):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     t, v, _ = (np.array(c) for c in zip(*record.series))
-    fig, ax = plt.subplots(figsize=(6, 4))
-    ax.plot(1e3 * t, v, label="EigenMPM block on a YADE wall (mean velocity)")
-    ax.plot(1e3 * t, np.maximum(o["v0"] - o["mu"] * o["g"] * t, 0), "k--", label="v0 - mu g t")
-    ax.set_xlabel("time (ms)")
-    ax.set_ylabel("velocity (m/s)")
-    ax.set_title(f"Sliding block, mu = {o['mu']}, h = {o['h_mm']} mm")
-    ax.legend()
-    fig.tight_layout()
-    path = os.path.join(out, "velocity.png")
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return plots.series(os.path.join(out, "velocity.png"), t,
+                        {"EigenMPM block on a YADE wall (mean velocity)": v,
+                         "v0 - mu g t": np.maximum(o["v0"] - o["mu"] * o["g"] * t, 0)},
+                        xlabel="time (ms)", ylabel="velocity (m/s)", tscale=1e3,
+                        title=f"Sliding block, mu = {o['mu']}, h = {o['h_mm']} mm")
 
 
 def main(argv):
@@ -121,13 +111,7 @@ def main(argv):
     n = mpm.solver.numPoints
     summary = {**summarize(record, o), "mu": o["mu"], "v0_m_s": o["v0"], "h_m": o["h_mm"] * 1e-3,
                "particles": int(n), "steps": int(mpm.solver.steps), "wall_time_s": wall_time, **end.summary()}
-    path = os.path.join(out, "summary.json")
-    with open(path, "w") as f:
-        json.dump(summary, f, indent=2)
-    print(json.dumps(summary, indent=2))
-    if o["plot"]:
-        print("plot:", plot(out, record, o))
-    print("summary:", path)
+    report(out, summary, (lambda: plot(out, record, o)) if o["plot"] else None)
     finish(end, out)
     return summary
 

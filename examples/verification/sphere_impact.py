@@ -19,7 +19,6 @@ momentum_change_rel (|P_end - P_0| / |P_0|, sphere and block, in the plane), con
 velocity at the end), peak_force_N, particles, steps, wall_time_s; DIR/energy.png. --quick:
 h = 1 mm.
 """
-import json
 import math
 import os
 import sys
@@ -30,7 +29,8 @@ from yade import O, pack, utils
 from yade.wrapper import FrictMat, ForceResetter, NewtonIntegrator
 
 import eigenmpm as em
-from eigenmpm.cli import finish, runSteps, scriptArgs
+from eigenmpm import plots
+from eigenmpm.cli import finish, report, runSteps, scriptArgs
 
 DEFAULTS = dict(h_mm=0.5, W_mm=40.0, H_mm=20.0, t_mm=10.0, R_mm=5.0, v0=5.0, E=1e8, dtFraction=0.4,
                 after=1.0, plot=True)
@@ -81,24 +81,10 @@ def summarize(record):
 
 
 def plot(out, record):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     t, ek, ekb, ee, _, _, _ = (np.array(c) for c in zip(*record.series))
-    fig, ax = plt.subplots(figsize=(6, 4))
-    ax.plot(1e6 * t, ek, label="sphere kinetic")
-    ax.plot(1e6 * t, ekb, label="block kinetic")
-    ax.plot(1e6 * t, ee, label="block elastic")
-    ax.plot(1e6 * t, ek + ekb + ee, "k", label="total")
-    ax.set_xlabel("time (us)")
-    ax.set_ylabel("energy (J)")
-    ax.set_title("YADE sphere on an EigenMPM block, frictionless")
-    ax.legend()
-    fig.tight_layout()
-    path = os.path.join(out, "energy.png")
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return plots.series(os.path.join(out, "energy.png"), t,
+                        {"sphere kinetic": ek, "block kinetic": ekb, "block elastic": ee, "total": ek + ekb + ee},
+                        ylabel="energy (J)", title="YADE sphere on an EigenMPM block, frictionless")
 
 
 def main(argv):
@@ -127,13 +113,7 @@ def main(argv):
     n = mpm.solver.numPoints
     summary = {**summarize(record), "h_m": o["h_mm"] * 1e-3, "v0_m_s": o["v0"], "particles": int(n),
                "steps": int(mpm.solver.steps), "wall_time_s": wall_time, **end.summary()}
-    path = os.path.join(out, "summary.json")
-    with open(path, "w") as f:
-        json.dump(summary, f, indent=2)
-    print(json.dumps(summary, indent=2))
-    if o["plot"]:
-        print("plot:", plot(out, record))
-    print("summary:", path)
+    report(out, summary, (lambda: plot(out, record)) if o["plot"] else None)
     finish(end, out)
     return summary
 

@@ -24,7 +24,6 @@ wall_time_s, ...) and DIR/centre_stress.png. --quick: R = 10 mm, rim 0.1, Gc = 0
 are the issue's disc (R = 50 mm, h = 1 mm, rim 0.02, Gc = 135 N/m: 31 428 points, about 69 000
 steps per revolution). --checkpoint-every N / --resume as in the other examples (doc/restart.md).
 """
-import json
 import math
 import os
 import sys
@@ -34,7 +33,7 @@ import numpy as np
 from yade import O, pack
 
 import eigenmpm as em
-from eigenmpm.cli import checkpointArgs, finish, runSteps, scriptArgs
+from eigenmpm.cli import checkpointArgs, finish, report, runSteps, scriptArgs
 
 DEFAULTS = dict(R_mm=50.0, h_mm=1.0, rim=0.02, revolutions=1.0, Gc=135.0, alpha=2.0, kappaOverH=1.1,
                 transfer="APIC", stressUpdate="corotational", recordEvery=20, plot=True)
@@ -149,13 +148,7 @@ def main(argv):
                "Gc_J_m2": record.erosion.Gc, "R_m": R, "h_m": h, "rim_speed_over_c": o["rim"],
                "particles": int(n), "steps": int(steps), "wall_time_s": wall,
                "particle_steps_per_s": n * steps / wall if wall > 0 else float("nan"), **end.summary()}
-    path = os.path.join(out, "summary.json")
-    with open(path, "w") as f:
-        json.dump(summary, f, indent=2)
-    print(json.dumps(summary, indent=2))
-    if o["plot"]:
-        print("plot:", plot(out, record))
-    print("summary:", path)
+    report(out, summary, (lambda: plot(out, record)) if o["plot"] else None)
     finish(end, out)
     return summary
 

@@ -32,7 +32,6 @@ doc/restart.md); --resume DIR/checkpoints continues from the newest of them (giv
 parameters) to the end state of the uninterrupted run, the modal record (ModalRecord) included,
 and writes the outputs as usual (wall_time_s then counts the resumed part only).
 """
-import json
 import math
 import os
 import sys
@@ -42,7 +41,7 @@ import numpy as np
 from yade import O, pack
 
 import eigenmpm as em
-from eigenmpm.cli import checkpointArgs, finish, runSteps, scriptArgs
+from eigenmpm.cli import checkpointArgs, finish, report, runSteps, scriptArgs
 
 
 DEFAULTS = dict(cells=80, shape="uGIMP", ppc=2, periods=3.0, dtFraction=0.5, plot=True, transfer="FLIP",
@@ -171,13 +170,7 @@ def main(argv):
     os.makedirs(out, exist_ok=True)
     summary, series, end = run(**opts, checkpoints=os.path.join(out, "checkpoints"), checkpointEvery=every,
                                resume=resume)
-    path = os.path.join(out, "summary.json")
-    with open(path, "w") as f:
-        json.dump(summary, f, indent=2)
-    print(json.dumps(summary, indent=2))
-    if opts["plot"]:
-        print("plot:", plot(out, series))
-    print("summary:", path)
+    report(out, summary, (lambda: plot(out, series)) if opts["plot"] else None)
     finish(end, out)
     return summary
 

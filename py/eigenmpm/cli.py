@@ -270,6 +270,20 @@ def _run(O, steps, outcome=None):
     return None
 
 
+def report(out, summary, plot=None):
+    """Writes an example's summary to out/summary.json and prints it; then, when given, draws
+    its figure (plot() returns the file's path) and prints the path. Returns the summary's path."""
+    import json
+    path = os.path.join(out, "summary.json")
+    with open(path, "w") as f:
+        json.dump(summary, f, indent=2)
+    print(json.dumps(summary, indent=2))
+    if plot is not None:
+        print("plot:", plot())
+    print("summary:", path)
+    return path
+
+
 def finish(end, out=None):
     """Ends an example once it has written its outputs. Writes the final state to every
     VTKRecorder in O.engines (unless already recorded). After a complete run it returns; after a
