@@ -9,7 +9,7 @@ the step it adds the opposite forces and their moments to ``O.forces``, so that 
 stiffness: the critical time step is unchanged.
 """
 import numpy as np
-from yade import O, PyRunner
+from yade import O, PyRunner, Vector3
 
 from . import _eigenmpm
 from .engines import ENGINE, _register, _Released, findEngine
@@ -17,6 +17,8 @@ from .fracture import sameStage
 from .params import Param, apply, declare
 
 SHAPES = ("Sphere", "Wall", "Facet", "Box")
+_ZERO = (0.0, 0.0, 0.0)
+_ZERO3 = (_ZERO, _ZERO, _ZERO)
 
 
 def _newton():
@@ -75,6 +77,7 @@ class BodyContact(PyRunner):
         self.core = None
         self._mpm = None
         self._bodyIds = []  # YADE id of each core body, in core order (the dynamic body: a clump)
+        self._selection = None  # (key, ids) of the bodies that touch the points
         self.history = []  # (time, total force on the bodies (3), points in contact)
 
     # --- the stage --------------------------------------------------------------------------
@@ -134,6 +137,13 @@ class BodyContact(PyRunner):
                              "[ForceResetter(), ..., MpmEngine, ..., NewtonIntegrator()]")
 
     def _selected(self):
+        """The bodies that touch the points: cached until O.bodies changes length."""
+        key = (len(O.bodies), None if self.bodies is None else tuple(self.bodies))
+        if getattr(self, "_selection", None) is None or self._selection[0] != key:
+            self._selection = (key, [b.id for b in self._select()])
+        return [O.bodies[i] for i in self._selection[1]]
+
+    def _select(self):
         if self.bodies is None:
             return [b for b in O.bodies if b is not None and b.shape is not None
                     and type(b.shape).__name__ in SHAPES]
@@ -154,11 +164,14 @@ class BodyContact(PyRunner):
     def _load(self, mpm):
         """Refills the stage with the selected bodies, each with the velocity it would have at
         the middle of the step without this contact (the leapfrog's v^{n+1/2}: its velocity plus
-        O.dt times the forces already in O.forces and the NewtonIntegrator's gravity)."""
+        O.dt times the forces already in O.forces and the NewtonIntegrator's gravity). YADE's
+        Python API reads one body at a time, so this loop is the contact's main cost with many
+        bodies (doc/contact.md, "Cost"): it passes YADE's vectors on as they are and does the
+        common case (a free sphere) in YADE's own vector arithmetic."""
         core, dt = self.core, O.dt
         core.clear()
         _, newton = _newton()
-        gravity = np.array(newton.gravity) if newton is not None else np.zeros(3)
+        gravity = Vector3(newton.gravity) if newton is not None else Vector3.Zero
         index = {}
         self._bodyIds = []
         for b in self._selected():
@@ -167,42 +180,45 @@ class BodyContact(PyRunner):
             if k is None:
                 k = index[owner.id] = self._addBody(owner, gravity, dt)
                 self._bodyIds.append(owner.id)
-            kind = type(b.shape).__name__
-            pos = np.array(b.state.pos)
+            shape = b.shape
+            kind = type(shape).__name__
             if kind == "Sphere":
-                core.addSphere(k, pos, b.shape.radius)
+                core.addSphere(k, b.state.pos, shape.radius)
             elif kind == "Wall":
-                normal = np.zeros(3)
-                normal[b.shape.axis] = -1.0 if b.shape.sense < 0 else 1.0
-                core.addWall(k, pos, normal, b.shape.sense == 0)
+                normal = [0.0, 0.0, 0.0]
+                normal[shape.axis] = -1.0 if shape.sense < 0 else 1.0
+                core.addWall(k, b.state.pos, normal, shape.sense == 0)
             elif kind == "Facet":
-                R = _quatMatrix(b.state.ori)
-                v = [pos + R @ np.array(x) for x in b.shape.vertices]
+                pos, R = np.array(b.state.pos), _quatMatrix(b.state.ori)
+                v = [pos + R @ np.array(x) for x in shape.vertices]
                 core.addFacet(k, v[0], v[1], v[2])
             else:
-                core.addBox(k, pos, np.array(b.shape.extents), _quatMatrix(b.state.ori))
+                core.addBox(k, b.state.pos, shape.extents, _quatMatrix(b.state.ori))
 
     def _addBody(self, b, gravity, dt):
         s = b.state
-        blocked = s.blockedDOFs
-        invMass = np.zeros(3)
-        invInertia = np.zeros((3, 3))
-        vel, angVel = np.array(s.vel), np.array(s.angVel)
-        if b.dynamic and s.mass > 0:
-            free = np.array([c not in blocked for c in "xyz"], dtype=float)
-            invMass = free / s.mass
-            force, torque = self._forceOn(b)
-            vel = vel + dt * free * (force / s.mass + gravity)
-            R = _quatMatrix(s.ori)
-            inertia = np.array(s.inertia)
-            local = np.diag([1.0 / i if i > 0 else 0.0 for i in inertia])
-            invInertia = R @ local @ R.T
-            for k, c in enumerate("XYZ"):
-                if c in blocked:
-                    invInertia[k, :] = 0
-                    invInertia[:, k] = 0
-            angVel = angVel + dt * invInertia @ torque
-        return self.core.addBody(np.array(s.pos), vel, angVel, invMass, invInertia)
+        if not (b.dynamic and s.mass > 0):  # fixed or moved by kinematic engines: infinite mass
+            return self.core.addBody(s.pos, s.vel, s.angVel, _ZERO, _ZERO3)
+        blocked, inertia, m = s.blockedDOFs, s.inertia, s.mass
+        if not blocked and not b.isClump and inertia[0] == inertia[1] == inertia[2] > 0:
+            # A free sphere (or any body of isotropic inertia): no rotation of the inertia needed.
+            i = 1.0 / inertia[0]
+            vel = s.vel + (O.forces.f(b.id) / m + gravity) * dt
+            angVel = s.angVel + O.forces.t(b.id) * (dt * i)
+            return self.core.addBody(s.pos, vel, angVel, (1.0 / m, 1.0 / m, 1.0 / m),
+                                     ((i, 0.0, 0.0), (0.0, i, 0.0), (0.0, 0.0, i)))
+        free = np.array([c not in blocked for c in "xyz"], dtype=float)
+        force, torque = self._forceOn(b)
+        vel = np.array(s.vel) + dt * free * (force / m + np.array(gravity))
+        R = _quatMatrix(s.ori)
+        local = np.diag([1.0 / i if i > 0 else 0.0 for i in inertia])
+        invInertia = R @ local @ R.T
+        for k, c in enumerate("XYZ"):
+            if c in blocked:
+                invInertia[k, :] = 0
+                invInertia[:, k] = 0
+        angVel = np.array(s.angVel) + dt * invInertia @ torque
+        return self.core.addBody(s.pos, vel, angVel, free / m, invInertia)
 
     @staticmethod
     def _forceOn(b):

@@ -1,0 +1,78 @@
+"""What BodyContact costs per step (issue 16 item 7): a 2D block of N points under gravity with
+B YADE spheres resting on its top face, stepped with and without the contact. Run inside YADE,
+one thread:
+
+    PYTHONPATH=build/python yade -n -j 1 -x bench/bench_contact.py [--points 1e5] [--bodies 1000]
+                                                                   [--steps 20] [--rounds 5]
+
+Two identical scenes are built in turn (O.reset between them): (C) ForceResetter, MpmEngine,
+BodyContact, NewtonIntegrator; (N) the same without BodyContact (the spheres then fall through,
+which costs YADE nothing measurable with no collider). Each round steps one scene `steps`
+steps after the other, alternating which goes first; the time is the process's CPU time. Printed:
+the median CPU time per step of each, their ratio, and the contact's extra time per step split
+into its Python part (reading the bodies from YADE, writing the forces back) and its C++ stage.
+"""
+import argparse
+import math
+import sys
+import time
+
+import numpy as np
+from yade import O, pack, utils
+from yade.wrapper import ForceResetter, NewtonIntegrator
+
+import eigenmpm as em
+
+
+def scene(points, bodies, contact):
+    O.reset()
+    side = math.sqrt(points / 4.0)  # cells per side at ppc = 2 in a square block of 1 m
+    h = 1.0 / side
+    mpm = em.MpmEngine(dim=2, h=h, thickness=h, gravity=(0, -9.81, 0), label="block",
+                       domain=((-0.1, -0.1, 0), (1.1, 1.2, 0)))
+    mpm.fill(pack.inAlignedBox((0, 0, -1), (1, 1, 1)), em.ElasticMaterial(E=1e8, nu=0.3, rho=1000))
+    r = 0.5 / bodies
+    ids = [O.bodies.append(utils.sphere(((i + 0.5) / bodies, 1 + r, 0), r)) for i in range(bodies)]
+    engines = [ForceResetter(), mpm]
+    c = None
+    if contact:
+        c = em.BodyContact(engine=mpm)
+        engines.append(c)
+    O.engines = engines + [NewtonIntegrator(damping=0, gravity=(0, -9.81, 0))]
+    O.dt = 0.4 * mpm.criticalTimeStep()
+    return mpm, c, ids
+
+
+def main(argv):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--points", type=float, default=1e5)
+    ap.add_argument("--bodies", type=int, default=1000)
+    ap.add_argument("--steps", type=int, default=20)
+    ap.add_argument("--rounds", type=int, default=5)
+    a = ap.parse_args(argv)
+    per = {True: [], False: []}
+    split = []
+    for k in range(a.rounds):
+        for contact in ((True, False) if k % 2 == 0 else (False, True)):
+            mpm, c, _ = scene(int(a.points), a.bodies, contact)
+            O.run(2, True)  # the grid and the first contact
+            t0 = time.process_time()
+            O.run(a.steps, True)
+            per[contact].append((time.process_time() - t0) / a.steps)
+            if contact:  # the Python part: refill the stage from YADE and hand the forces back
+                t1 = time.process_time()
+                for _ in range(a.steps):
+                    c._load(mpm)
+                    c.afterStep(mpm)
+                split.append((time.process_time() - t1) / a.steps)
+                touching = c.pointsInContact()
+    withC, without = np.median(per[True]), np.median(per[False])
+    python = np.median(split)
+    print(f"points {int(a.points)}, bodies {a.bodies}, points touching {touching}")
+    print(f"step without contact {1e3 * without:.2f} ms, with {1e3 * withC:.2f} ms: ratio {withC / without:.3f}")
+    print(f"contact's extra per step {1e3 * (withC - without):.2f} ms, of which Python (bodies in, forces out) "
+          f"{1e3 * python:.2f} ms")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:] if sys.argv[0].endswith(".py") else sys.argv)
