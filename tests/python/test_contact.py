@@ -281,3 +281,13 @@ def test_impact_showcase_quick(tmp_path):
     assert parts == {"0", "1"}  # the beam and YADE's spheres in one ParaView collection
     for name in ("damage.png", "energy.png", "energy.csv"):
         assert (tmp_path / name).exists(), name
+
+
+def test_colliding_bars_exchange_their_velocities(tmp_path):
+    s = run_example("colliding_bars", tmp_path, "--quick", "plot=0")
+    # h = 2 mm measured: contact 1.019 x 2L/c, velocities after -0.942 / +0.942 v0, energy -0.27 %
+    assert abs(s["contact_time_over_2L_c"] - 1) < 0.03
+    va, vb = s["velocity_after_over_v0"]
+    assert va < -0.9 and vb > 0.9
+    assert abs(s["energy_change_rel"]) < 0.01
+    assert s["momentum_change_abs"] < 1e-12
