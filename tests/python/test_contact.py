@@ -291,3 +291,23 @@ def test_colliding_bars_exchange_their_velocities(tmp_path):
     assert va < -0.9 and vb > 0.9
     assert abs(s["energy_change_rel"]) < 0.01
     assert s["momentum_change_abs"] < 1e-12
+
+
+@pytest.mark.parametrize("crackContact", [False, True])
+def test_contact_results_do_not_depend_on_the_thread_count(crackContact):
+    def run(threads):
+        O.reset()
+        mpm = em.MpmEngine(dim=2, h=0.002, thickness=0.01, label="block", threads=threads, crackContact=crackContact,
+                           domain=((-0.02, -0.02, 0), (0.06, 0.06, 0)))
+        mpm.fill(pack.inAlignedBox((0, 0, -1), (0.04, 0.02, 1)), em.ElasticMaterial(E=1e7, nu=0.3, rho=1000))
+        mpm.crack([(0.02, -0.003, 0), (0.02, 0.01, 0)])
+        steel = O.materials.append(FrictMat(density=7800, young=2e11))
+        ball = O.bodies.append(utils.sphere((0.02, 0.0265, 0), 0.006, material=steel))
+        O.bodies[ball].state.vel = (0.5, -3.0, 0)
+        O.bodies.append(utils.wall((0, 0, 0), axis=1, sense=1))
+        O.engines = [ForceResetter(), mpm, em.BodyContact(engine=mpm, friction=0.3), NewtonIntegrator(damping=0)]
+        O.dt = 0.4 * mpm.criticalTimeStep()
+        O.run(300, True)
+        return np.concatenate([mpm.solver.positions().ravel(), mpm.solver.velocities().ravel(),
+                               np.array(O.bodies[ball].state.vel)])
+    assert np.array_equal(run(1), run(2))
