@@ -64,8 +64,8 @@ class BodyContact(PyRunner):
         Param("bodies", None, "", "ids of the YADE bodies that touch the points (a clump's member "
                                   "ids, or the clump's id for all its members); default: every "
                                   "body of O.bodies with a Sphere, Wall, Facet or Box shape",
-              kind="object", accepts="a list of body ids", check=lambda b: b is None or all(
-                  isinstance(i, (int, np.integer)) for i in b)),
+              kind="object", accepts="a list of body ids", check=lambda b: b is None or (
+                  isinstance(b, (list, tuple, np.ndarray)) and all(isinstance(i, (int, np.integer)) for i in b))),
         Param("iterPeriod", 1, "iterations", "period of the force record (history)", bounds="[1, inf)"),
     )
 
