@@ -362,13 +362,21 @@ def _interruptibleRun(self, nSteps=-1, wait=False):
             outcome["raised"] = err
 
     worker = threading.Thread(target=work, name="eigenmpm-O.run", daemon=True)
-    worker.start()
     try:
+        worker.start()
         while worker.is_alive():
             worker.join(0.05)
     except KeyboardInterrupt:
+        if worker.ident is None:  # Ctrl-C before the run began
+            raise
         self.pause()
-        worker.join()
+        worker.join(0.1)
+        while worker.is_alive():
+            # A Ctrl-C that came before YADE's loop had started found nothing to pause; pause the
+            # loop once it runs (only then: pausing a pausing loop slows it down).
+            if self.running:
+                self.pause()
+            worker.join(0.1)
         _awaitStepEnd(self)
         raise
     if "raised" in outcome:
