@@ -31,8 +31,12 @@ def scene(points, bodies, contact):
     mpm = em.MpmEngine(dim=2, h=h, thickness=h, gravity=(0, -9.81, 0), label="block",
                        domain=((-0.1, -0.1, 0), (1.1, 1.2, 0)))
     mpm.fill(pack.inAlignedBox((0, 0, -1), (1, 1, 1)), em.ElasticMaterial(E=1e8, nu=0.3, rho=1000))
+    mpm.fix(region=pack.inAlignedBox((-1, -1, -1), (2, 0, 1)), components="xy", label="base")  # it holds the spheres
     r = 0.5 / bodies
-    ids = [O.bodies.append(utils.sphere(((i + 0.5) / bodies, 1 + r, 0), r)) for i in range(bodies)]
+    # The spheres start just inside the reach of the top row of points (its top edge, where the
+    # points' half-width ends), so that they touch from the first step.
+    top = float(np.max(np.array(mpm.solver.positions())[:, 1])) + 0.9 * mpm.solver.halfWidth
+    ids = [O.bodies.append(utils.sphere(((i + 0.5) / bodies, top + r, 0), r)) for i in range(bodies)]
     engines = [ForceResetter(), mpm]
     c = None
     if contact:
@@ -55,7 +59,7 @@ def main(argv):
     for k in range(a.rounds):
         for contact in ((True, False) if k % 2 == 0 else (False, True)):
             mpm, c, _ = scene(int(a.points), a.bodies, contact)
-            O.run(2, True)  # the grid and the first contact
+            O.run(20, True)  # the grid, and the spheres settle onto the block
             t0 = time.process_time()
             O.run(a.steps, True)
             per[contact].append((time.process_time() - t0) / a.steps)

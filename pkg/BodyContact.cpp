@@ -128,30 +128,69 @@ void RigidShape::bounds(V3& lo, V3& hi) const
     }
 }
 
+template <int D> bool BodyContact<D>::cellRange(const GridState<D>& s, const RigidShape& shape, double reach,
+                                                 int lo[3], int hi[3]) const
+{
+    const auto& g = s.grid;
+    V3 a, b;
+    shape.bounds(a, b);
+    if (D == 2 && (a[2] - reach > 0 || b[2] + reach < 0)) return false;  // the section by z = 0
+    for (int d = 0; d < 3; ++d) lo[d] = hi[d] = 0;
+    for (int d = 0; d < D; ++d) {
+        const int nc = std::max(g.n[d] - 1, 1);
+        const double x = (a[d] - reach - g.origin[d]) * g.invh, y = (b[d] + reach - g.origin[d]) * g.invh;
+        lo[d] = x <= 0 ? 0 : static_cast<int>(std::min(std::floor(x), double(nc)));
+        hi[d] = y >= nc - 1 ? nc - 1 : static_cast<int>(std::max(std::floor(y), -1.0));
+        if (lo[d] > hi[d]) return false;
+    }
+    return true;
+}
+
 template <int D> void BodyContact<D>::binPoints(const GridState<D>& s)
 {
-    // Points by grid cell (counting sort), so that each shape tests only the points near it.
+    // The points in the cells of binLo_..binHi_ (the union of the shapes' ranges), by cell
+    // (counting sort, in point order within a cell), so that each shape tests only the points
+    // near it. The others are rejected by their coordinates first: with few bodies near a large
+    // body of points, most points cost two comparisons.
     const auto& g = s.grid;
+    int width[3] = {1, 1, 1}, nc[3] = {1, 1, 1};
+    double xlo[3], xhi[3];
     int cells = 1;
-    for (int d = 0; d < D; ++d) cells *= std::max(g.n[d] - 1, 1);
+    for (int d = 0; d < D; ++d) {
+        nc[d] = std::max(g.n[d] - 1, 1);
+        width[d] = binHi_[d] - binLo_[d] + 1;
+        cells *= width[d];
+        // A point below the first cell (or above the last) is clamped into it: no bound there.
+        xlo[d] = binLo_[d] == 0 ? -kInf : g.origin[d] + (binLo_[d] - 1) * g.h;
+        xhi[d] = binHi_[d] == nc[d] - 1 ? kInf : g.origin[d] + (binHi_[d] + 2) * g.h;
+    }
     cellStart_.assign(cells + 1, 0);
     const int np = static_cast<int>(s.points.size());
-    std::vector<int> cellOf(np);
+    cellOf_.assign(np, -1);
     for (int p = 0; p < np; ++p) {
+        const auto& x = s.points.x[p];
+        bool out = false;
+        for (int d = 0; d < D; ++d) out = out || x[d] < xlo[d] || x[d] > xhi[d];
+        if (out) continue;
         int index = 0, stride = 1;
         for (int d = 0; d < D; ++d) {
-            const int nc = std::max(g.n[d] - 1, 1);
-            const int i = std::clamp(static_cast<int>(std::floor((s.points.x[p][d] - g.origin[d]) * g.invh)), 0, nc - 1);
-            index += i * stride;
-            stride *= nc;
+            const int i = std::clamp(static_cast<int>(std::floor((x[d] - g.origin[d]) * g.invh)), 0, nc[d] - 1);
+            if (i < binLo_[d] || i > binHi_[d]) {
+                index = -1;
+                break;
+            }
+            index += (i - binLo_[d]) * stride;
+            stride *= width[d];
         }
-        cellOf[p] = index;
+        if (index < 0) continue;
+        cellOf_[p] = index;
         ++cellStart_[index + 1];
     }
     for (int c = 0; c < cells; ++c) cellStart_[c + 1] += cellStart_[c];
-    cellPoints_.resize(np);
-    std::vector<int> fill(cellStart_.begin(), cellStart_.end() - 1);
-    for (int p = 0; p < np; ++p) cellPoints_[fill[cellOf[p]]++] = p;
+    cellPoints_.resize(cellStart_[cells]);
+    fill_.assign(cellStart_.begin(), cellStart_.end() - 1);
+    for (int p = 0; p < np; ++p)
+        if (cellOf_[p] >= 0) cellPoints_[fill_[cellOf_[p]]++] = p;
 }
 
 template <int D> void BodyContact<D>::afterForces(GridState<D>& s)
@@ -163,34 +202,35 @@ template <int D> void BodyContact<D>::afterForces(GridState<D>& s)
         b.torque.setZero();
     }
     if (shapes.empty() || s.points.size() == 0 || !s.support) return;
-    binPoints(s);
-    const auto& g = s.grid;
     const auto& P = s.points;
     const double reach = s.support->halfWidth();
+    // The cell range of each shape, and their union: only the points there are binned.
+    ranges_.resize(shapes.size());
+    bool any = false;
+    for (std::size_t k = 0; k < shapes.size(); ++k) {
+        Range& r = ranges_[k];
+        r.live = cellRange(s, shapes[k], reach, r.lo, r.hi);
+        if (!r.live) continue;
+        for (int d = 0; d < 3; ++d) {
+            binLo_[d] = any ? std::min(binLo_[d], r.lo[d]) : r.lo[d];
+            binHi_[d] = any ? std::max(binHi_[d], r.hi[d]) : r.hi[d];
+        }
+        any = true;
+    }
+    if (!any) return;
+    binPoints(s);
+    const int w0 = binHi_[0] - binLo_[0] + 1, w1 = binHi_[1] - binLo_[1] + 1;
 
     // 1. The points touching each shape, and the nodes of their supports.
     touches_.clear();
     for (int k = 0; k < static_cast<int>(shapes.size()); ++k) {
         const RigidShape& shape = shapes[k];
-        V3 lo, hi;
-        shape.bounds(lo, hi);
-        int clo[3] = {0, 0, 0}, chi[3] = {0, 0, 0}, nc[3] = {1, 1, 1};
-        bool empty = false;
-        for (int d = 0; d < D; ++d) {
-            nc[d] = std::max(g.n[d] - 1, 1);
-            const double a = (lo[d] - reach - g.origin[d]) * g.invh, b = (hi[d] + reach - g.origin[d]) * g.invh;
-            clo[d] = a <= 0 ? 0 : static_cast<int>(std::min(std::floor(a), double(nc[d])));
-            chi[d] = b >= nc[d] - 1 ? nc[d] - 1 : static_cast<int>(std::max(std::floor(b), -1.0));
-            empty = empty || clo[d] > chi[d];
-        }
-        if (empty) continue;
-        if (D == 2) {  // the section by z = 0
-            if (lo[2] - reach > 0 || hi[2] + reach < 0) continue;
-        }
-        for (int k2 = clo[2]; k2 <= chi[2]; ++k2)
-            for (int j = clo[1]; j <= chi[1]; ++j)
-                for (int i = clo[0]; i <= chi[0]; ++i) {
-                    const int cell = i + nc[0] * (j + nc[1] * k2);
+        const Range& r = ranges_[k];
+        if (!r.live) continue;
+        for (int k2 = r.lo[2]; k2 <= r.hi[2]; ++k2)
+            for (int j = r.lo[1]; j <= r.hi[1]; ++j)
+                for (int i = r.lo[0]; i <= r.hi[0]; ++i) {
+                    const int cell = (i - binLo_[0]) + w0 * ((j - binLo_[1]) + w1 * (k2 - binLo_[2]));
                     for (int c = cellStart_[cell]; c < cellStart_[cell + 1]; ++c) {
                         const int p = cellPoints_[c];
                         V3 x = V3::Zero();

@@ -55,6 +55,7 @@ struct RigidBody {
     Eigen::Matrix3d invInertia = Eigen::Matrix3d::Zero();  ///< world frame; 0 when rotations are blocked
     Eigen::Vector3d force = Eigen::Vector3d::Zero();   ///< result: force of the points on the body, N
     Eigen::Vector3d torque = Eigen::Vector3d::Zero();  ///< result: its moment about centre, N m
+    int id = -1;  ///< the caller's id of the body (YADE's body id), or -1
 };
 
 template <int D> class BodyContact : public GridCondition<D> {
@@ -76,8 +77,15 @@ private:
         double weight;  ///< N m
         Eigen::Vector3d normal, point;  ///< weighted sums
     };
+    struct Range {
+        int lo[3], hi[3];  ///< cells a shape's points may lie in
+        bool live;         ///< false: none (outside the grid, or off the plane z = 0 in 2D)
+    };
     std::vector<Touch> touches_;
-    std::vector<int> cellStart_, cellPoints_;
+    std::vector<Range> ranges_;
+    int binLo_[3] = {0, 0, 0}, binHi_[3] = {0, 0, 0};  ///< the binned cells: the union of the ranges
+    std::vector<int> cellStart_, cellPoints_, cellOf_, fill_;
+    bool cellRange(const GridState<D>& s, const RigidShape& shape, double reach, int lo[3], int hi[3]) const;
     void binPoints(const GridState<D>& s);
 };
 

@@ -36,6 +36,22 @@ Eigen::Vector3d toVec3(const bp::object& o, const char* what)
 
 bp::tuple fromVec3(const Eigen::Vector3d& v) { return bp::make_tuple(v[0], v[1], v[2]); }
 
+/// A YADE Vector3 (converted through YADE's own registered converter, no Python call per
+/// component) or, failing that, any 2- or 3-sequence.
+Eigen::Vector3d fastVec3(const bp::object& o, const char* what)
+{
+    bp::extract<Eigen::Vector3d> direct(o);
+    return direct.check() ? direct() : toVec3(o, what);
+}
+
+/// Attribute `key` (an interned name, made once by the caller) of o.
+bp::object attr(const bp::object& o, PyObject* key)
+{
+    PyObject* r = PyObject_GetAttr(o.ptr(), key);
+    if (!r) bp::throw_error_already_set();
+    return bp::object(bp::handle<>(r));
+}
+
 std::vector<int> toIntList(const bp::object& o)
 {
     std::vector<int> out;
@@ -145,9 +161,10 @@ template <int D> struct BindContact {
         c.bodies.clear();
     }
     static int addBody(C& c, bp::object centre, bp::object velocity, bp::object angularVelocity,
-                       bp::object invMass, bp::object invInertia)
+                       bp::object invMass, bp::object invInertia, int id)
     {
         RigidBody b;
+        b.id = id;
         b.centre = toVec3(centre, "body centre");
         b.velocity = toVec3(velocity, "body velocity");
         b.angularVelocity = toVec3(angularVelocity, "body angular velocity");
@@ -155,6 +172,77 @@ template <int D> struct BindContact {
         b.invInertia = toMat3(invInertia, "body inverse inertia");
         c.bodies.push_back(b);
         return static_cast<int>(c.bodies.size()) - 1;
+    }
+    /// The common case in bulk: the free spheres among `ids` (YADE ids of sphere bodies that are
+    /// no clump members) are read from YADE in C++ and added as a body and a sphere each, with
+    /// the velocity they would have at the middle of the step without this contact (the
+    /// leapfrog's v^{n+1/2}: velocity plus dt times the forces already in `forces` (O.forces) and
+    /// `gravity`), in the arithmetic of the Python path it replaces (BodyContact._addBody).
+    /// Returns (ids added, in core order; ids left for the general path: clump members, fixed or
+    /// blocked bodies, anisotropic inertia). An erased body (None) is skipped.
+    static bp::tuple addFreeSpheres(C& c, bp::object bodies, bp::object ids, bp::object forces, bp::object gravity,
+                                    double dt)
+    {
+        static PyObject* const kState = PyUnicode_InternFromString("state");
+        static PyObject* const kShape = PyUnicode_InternFromString("shape");
+        static PyObject* const kRadius = PyUnicode_InternFromString("radius");
+        static PyObject* const kDynamic = PyUnicode_InternFromString("dynamic");
+        static PyObject* const kMember = PyUnicode_InternFromString("isClumpMember");
+        static PyObject* const kMass = PyUnicode_InternFromString("mass");
+        static PyObject* const kInertia = PyUnicode_InternFromString("inertia");
+        static PyObject* const kBlocked = PyUnicode_InternFromString("blockedDOFs");
+        static PyObject* const kPos = PyUnicode_InternFromString("pos");
+        static PyObject* const kVel = PyUnicode_InternFromString("vel");
+        static PyObject* const kAngVel = PyUnicode_InternFromString("angVel");
+        const Eigen::Vector3d g = fastVec3(gravity, "gravity");
+        const bp::object forceOf = forces.attr("f"), torqueOf = forces.attr("t");
+        bp::list added, rest;
+        const long n = bp::len(ids);
+        for (long k = 0; k < n; ++k) {
+            const bp::object id = ids[k];
+            const bp::object b = bodies[id];
+            if (b.is_none()) continue;
+            const bp::object st = attr(b, kState);
+            const double m = bp::extract<double>(attr(st, kMass));
+            const Eigen::Vector3d I = fastVec3(attr(st, kInertia), "inertia");
+            if (bp::extract<bool>(attr(b, kMember))() || !bp::extract<bool>(attr(b, kDynamic))() || !(m > 0) ||
+                bp::len(attr(st, kBlocked)) != 0 || !(I[0] == I[1] && I[1] == I[2] && I[0] > 0)) {
+                rest.append(id);
+                continue;
+            }
+            const double i = 1.0 / I[0];
+            RigidBody r;
+            r.id = bp::extract<int>(id);
+            r.centre = fastVec3(attr(st, kPos), "position");
+            r.velocity = fastVec3(attr(st, kVel), "velocity") + (fastVec3(forceOf(id), "force") / m + g) * dt;
+            r.angularVelocity = fastVec3(attr(st, kAngVel), "angular velocity") + fastVec3(torqueOf(id), "torque") * (dt * i);
+            r.invMass = Eigen::Vector3d::Constant(1.0 / m);
+            r.invInertia = Eigen::Vector3d::Constant(i).asDiagonal();
+            c.bodies.push_back(r);
+            RigidShape sh;
+            sh.body = static_cast<int>(c.bodies.size()) - 1;
+            sh.kind = RigidShape::sphere;
+            sh.a = r.centre;
+            sh.radius = bp::extract<double>(attr(attr(b, kShape), kRadius));
+            c.shapes.push_back(sh);
+            added.append(id);
+        }
+        return bp::make_tuple(added, rest);
+    }
+    /// Adds the last step's force and moment of each body with a YADE id to `forces` (O.forces),
+    /// skipping bodies on which both are zero.
+    static void applyForces(const C& c, bp::object forces)
+    {
+        const bp::object addF = forces.attr("addF"), addT = forces.attr("addT");
+        // YADE's Vector3 when its converter is registered (inside YADE), a tuple otherwise.
+        const bp::converter::registration* reg = bp::converter::registry::query(bp::type_id<Eigen::Vector3d>());
+        const bool vector3 = reg && reg->m_to_python;
+        auto out = [&](const Eigen::Vector3d& v) { return vector3 ? bp::object(v) : bp::object(fromVec3(v)); };
+        for (const RigidBody& b : c.bodies) {
+            if (b.id < 0 || (b.force.isZero(0) && b.torque.isZero(0))) continue;
+            addF(b.id, out(b.force));
+            addT(b.id, out(b.torque));
+        }
     }
     static RigidShape shape(C& c, int body, int kind)
     {
@@ -218,11 +306,19 @@ template <int D> struct BindContact {
             .add_property("address", +[](const C& c) { return reinterpret_cast<std::uintptr_t>(&c); })
             .def("clear", &clear)
             .def("addBody", &addBody, (bp::arg("centre"), bp::arg("velocity"), bp::arg("angularVelocity"),
-                                       bp::arg("invMass"), bp::arg("invInertia")))
+                                       bp::arg("invMass"), bp::arg("invInertia"), bp::arg("id") = -1))
+            .def("addFreeSpheres", &addFreeSpheres, (bp::arg("bodies"), bp::arg("ids"), bp::arg("forces"),
+                                                     bp::arg("gravity"), bp::arg("dt")))
+            .def("applyForces", &applyForces, (bp::arg("forces")))
             .def("addSphere", &addSphere, (bp::arg("body"), bp::arg("centre"), bp::arg("radius")))
             .def("addWall", &addWall, (bp::arg("body"), bp::arg("point"), bp::arg("normal"), bp::arg("twoSided")))
             .def("addFacet", &addFacet, (bp::arg("body"), bp::arg("a"), bp::arg("b"), bp::arg("c")))
             .def("addBox", &addBox, (bp::arg("body"), bp::arg("centre"), bp::arg("halfExtents"), bp::arg("rotation")))
+            .add_property("totalForce", +[](const C& c) {
+                Eigen::Vector3d f = Eigen::Vector3d::Zero();
+                for (const RigidBody& b : c.bodies) f += b.force;
+                return fromVec3(f);
+            }, "sum of the forces of the points on the bodies in the last step, N")
             .def("force", &force, "force of the points on body i in the last step, N")
             .def("torque", &torque, "its moment about the body's centre, N m");
     }

@@ -77,7 +77,7 @@ class BodyContact(PyRunner):
         self.core = None
         self._mpm = None
         self._bodyIds = []  # YADE id of each core body, in core order (the dynamic body: a clump)
-        self._selection = None  # (key, ids) of the bodies that touch the points
+        self._selection = None  # (key, sphere ids, other ids) of the bodies that touch the points
         self.history = []  # (time, total force on the bodies (3), points in contact)
 
     # --- the stage --------------------------------------------------------------------------
@@ -115,11 +115,7 @@ class BodyContact(PyRunner):
     def afterStep(self, mpm):
         """Adds the last step's contact forces and moments to O.forces (called by the MpmEngine
         after its step)."""
-        for i, bid in enumerate(self._bodyIds):
-            f, t = self.core.force(i), self.core.torque(i)
-            if any(f) or any(t):
-                O.forces.addF(bid, f)
-                O.forces.addT(bid, t)
+        self.core.applyForces(O.forces)
 
     def _release(self):
         self.core = _Released(f"the contact stage of BodyContact {self.label!r}")
@@ -137,11 +133,15 @@ class BodyContact(PyRunner):
                              "[ForceResetter(), ..., MpmEngine, ..., NewtonIntegrator()]")
 
     def _selected(self):
-        """The bodies that touch the points: cached until O.bodies changes length."""
+        """The ids of the bodies that touch the points, as (spheres that are no clump members,
+        the others); cached until O.bodies changes length."""
         key = (len(O.bodies), None if self.bodies is None else tuple(self.bodies))
         if getattr(self, "_selection", None) is None or self._selection[0] != key:
-            self._selection = (key, [b.id for b in self._select()])
-        return [O.bodies[i] for i in self._selection[1]]
+            chosen = self._select()
+            spheres = [b.id for b in chosen if type(b.shape).__name__ == "Sphere" and not b.isClumpMember]
+            fast = set(spheres)
+            self._selection = (key, spheres, [b.id for b in chosen if b.id not in fast])
+        return self._selection[1], self._selection[2]
 
     def _select(self):
         if self.bodies is None:
@@ -165,16 +165,20 @@ class BodyContact(PyRunner):
         """Refills the stage with the selected bodies, each with the velocity it would have at
         the middle of the step without this contact (the leapfrog's v^{n+1/2}: its velocity plus
         O.dt times the forces already in O.forces and the NewtonIntegrator's gravity). YADE's
-        Python API reads one body at a time, so this loop is the contact's main cost with many
-        bodies (doc/contact.md, "Cost"): it passes YADE's vectors on as they are and does the
-        common case (a free sphere) in YADE's own vector arithmetic."""
+        Python API reads one body at a time; the common case (a free sphere) is read in C++
+        (Contact.addFreeSpheres: about 1 us per sphere), the others here (doc/contact.md, "Cost")."""
         core, dt = self.core, O.dt
         core.clear()
         _, newton = _newton()
         gravity = Vector3(newton.gravity) if newton is not None else Vector3.Zero
+        spheres, others = self._selected()
+        added, rest = core.addFreeSpheres(O.bodies, spheres, O.forces, gravity, dt)
+        self._bodyIds = list(added)
         index = {}
-        self._bodyIds = []
-        for b in self._selected():
+        for i in list(rest) + others:
+            b = O.bodies[i]
+            if b is None:  # erased since the selection
+                continue
             owner = O.bodies[b.clumpId] if b.isClumpMember else b
             k = index.get(owner.id)
             if k is None:
@@ -198,15 +202,15 @@ class BodyContact(PyRunner):
     def _addBody(self, b, gravity, dt):
         s = b.state
         if not (b.dynamic and s.mass > 0):  # fixed or moved by kinematic engines: infinite mass
-            return self.core.addBody(s.pos, s.vel, s.angVel, _ZERO, _ZERO3)
+            return self.core.addBody(s.pos, s.vel, s.angVel, _ZERO, _ZERO3, b.id)
         blocked, inertia, m = s.blockedDOFs, s.inertia, s.mass
         if not blocked and not b.isClump and inertia[0] == inertia[1] == inertia[2] > 0:
-            # A free sphere (or any body of isotropic inertia): no rotation of the inertia needed.
+            # Any body of isotropic inertia: no rotation of the inertia needed.
             i = 1.0 / inertia[0]
             vel = s.vel + (O.forces.f(b.id) / m + gravity) * dt
             angVel = s.angVel + O.forces.t(b.id) * (dt * i)
             return self.core.addBody(s.pos, vel, angVel, (1.0 / m, 1.0 / m, 1.0 / m),
-                                     ((i, 0.0, 0.0), (0.0, i, 0.0), (0.0, 0.0, i)))
+                                     ((i, 0.0, 0.0), (0.0, i, 0.0), (0.0, 0.0, i)), b.id)
         free = np.array([c not in blocked for c in "xyz"], dtype=float)
         force, torque = self._forceOn(b)
         vel = np.array(s.vel) + dt * free * (force / m + np.array(gravity))
@@ -218,7 +222,7 @@ class BodyContact(PyRunner):
                 invInertia[k, :] = 0
                 invInertia[:, k] = 0
         angVel = np.array(s.angVel) + dt * invInertia @ torque
-        return self.core.addBody(s.pos, vel, angVel, free / m, invInertia)
+        return self.core.addBody(s.pos, vel, angVel, free / m, invInertia, b.id)
 
     @staticmethod
     def _forceOn(b):
@@ -251,7 +255,7 @@ class BodyContact(PyRunner):
         """Sum of the contact forces on all the bodies in the last step, N."""
         if self.core is None:
             return np.zeros(3)
-        return sum((np.array(self.core.force(i)) for i in range(len(self._bodyIds))), np.zeros(3))
+        return np.array(self.core.totalForce)
 
     def pointsInContact(self):
         return self.core.pointsInContact if self.core is not None else 0
