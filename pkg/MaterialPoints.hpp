@@ -25,7 +25,10 @@ template <int D> struct MaterialPoints {
     /// Deformation gradient F of the co-rotational update (Kinematics.hpp); empty unless
     /// `deformation` is on. `strain` then holds the co-rotated strain U - I.
     std::vector<Mat<D>> deformationGradient;
-    bool affine = false, deformation = false;  ///< which optional arrays the points carry
+    /// The body each point belongs to (0-63): bodies in one grid touch without bonding
+    /// (Solver::setPointBodies). Empty unless `bodies` is on: one body pays nothing.
+    std::vector<std::int32_t> body;
+    bool affine = false, deformation = false, bodies = false;  ///< which optional arrays the points carry
 
     std::size_t size() const { return x.size(); }
 
@@ -46,6 +49,7 @@ template <int D> struct MaterialPoints {
         f("material", material);
         f("affineVelocity", affineVelocity);
         f("deformationGradient", deformationGradient);
+        f("body", body);
     }
 
     /// The length an array must have: every point's, or 0 for an optional one that is off.
@@ -53,6 +57,7 @@ template <int D> struct MaterialPoints {
     {
         if (name == "affineVelocity" && !affine) return 0;
         if (name == "deformationGradient" && !deformation) return 0;
+        if (name == "body" && !bodies) return 0;
         return size();
     }
 
@@ -71,6 +76,7 @@ template <int D> struct MaterialPoints {
         material.push_back(mat);
         if (affine) affineVelocity.push_back(Mat<D>::Zero());
         if (deformation) deformationGradient.push_back(Mat<D>::Identity());
+        if (bodies) body.push_back(0);
     }
 };
 

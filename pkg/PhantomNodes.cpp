@@ -196,22 +196,46 @@ template <int D> void PhantomNodes<D>::markCells(int c, const Grid<D>& g, std::v
     }
 }
 
-template <int D> int PhantomNodes<D>::update(const Grid<D>& g, int rings)
+template <int D> void PhantomNodes<D>::reset(int nn, int layers)
 {
-    const int nn = g.numNodes();
+    // Unmarks last step's nodes (the cost follows the marked region), or resizes.
     if (numNodes_ != nn || mark_.size() != static_cast<std::size_t>(nn) ||
-        twin_.size() != cracks_.size() * static_cast<std::size_t>(nn)) {
+        twin_.size() != static_cast<std::size_t>(layers) * nn || layers_ != layers) {
         numNodes_ = nn;
         mark_.assign(nn, 0);
-        twin_.assign(cracks_.size() * static_cast<std::size_t>(nn), -1);
+        twin_.assign(static_cast<std::size_t>(layers) * nn, -1);
         marked_.clear();
     }
+    layers_ = layers;
     for (int I : marked_) {
         mark_[I] = 0;
-        for (std::size_t c = 0; c < cracks_.size(); ++c) twin_[c * nn + I] = -1;
+        for (int c = 0; c < layers; ++c) twin_[static_cast<std::size_t>(c) * nn + I] = -1;
     }
     marked_.clear();
     numTwins_ = 0;
+}
+
+template <int D>
+int PhantomNodes<D>::updateBodies(const Grid<D>& g, const std::vector<std::uint64_t>& reach, int numBodies)
+{
+    const int nn = g.numNodes();
+    reset(nn, numBodies);
+    for (int I = 0; I < nn; ++I) {
+        std::uint64_t m = reach[I];
+        if (!(m & (m - 1))) continue;  // no body or one
+        mark_[I] = 1;
+        marked_.push_back(I);
+        m &= m - 1;  // the lowest body keeps the node
+        for (int b = 0; m; ++b, m >>= 1)
+            if (m & 1) twin_[static_cast<std::size_t>(b) * nn + I] = nn + numTwins_++;
+    }
+    return numTwins_;
+}
+
+template <int D> int PhantomNodes<D>::update(const Grid<D>& g, int rings)
+{
+    const int nn = g.numNodes();
+    reset(nn, static_cast<int>(cracks_.size()));
     std::vector<long> cells, nodes;
     for (std::size_t c = 0; c < cracks_.size(); ++c) {
         cells.clear();

@@ -15,6 +15,7 @@
 // a segment through an interior polyline vertex counts one crossing (parameters in [0, 1) along
 // each crack segment), and a segment through either end of the crack (a tip) counts none.
 #pragma once
+#include <cstdint>
 #include <vector>
 
 #include "ElasticMaterial.hpp"
@@ -43,6 +44,20 @@ public:
     /// g.numNodes() on. Returns the number of twins.
     int update(const Grid<D>& g, int rings);
 
+    /// Separate bodies in one grid (points carry a body id; Solver::setPointBodies), in place of
+    /// cracks: a regular node that points of two or more bodies reach (reach[I] has a bit per
+    /// body) is marked; its own field is the lowest of those bodies' and each other body gets a
+    /// twin there (numbered from g.numNodes() on, node by node). Layer b of the twin table is
+    /// body b. Returns the number of twins. Not together with cracks (the Solver refuses it).
+    int updateBodies(const Grid<D>& g, const std::vector<std::uint64_t>& reach, int numBodies);
+    /// The node a point of `body` uses in place of the regular node I: its twin there, or I.
+    int mapBody(int body, int I) const
+    {
+        if (mark_.empty() || !mark_[I]) return I;
+        const int t = twin_[static_cast<std::size_t>(body) * numNodes_ + I];
+        return t >= 0 ? t : I;
+    }
+
     bool marked(int node) const { return mark_[node] != 0; }
     const std::vector<int>& markedNodes() const { return marked_; }
     /// The node a point at x uses in place of the marked node I at xI: a twin or I itself.
@@ -51,8 +66,8 @@ public:
     template <class F> void forEachTwin(int I, F&& f) const
     {
         if (!mark_.empty() && mark_[I])
-            for (std::size_t c = 0; c < cracks_.size(); ++c) {
-                const int t = twin_[c * numNodes_ + I];
+            for (int c = 0; c < layers_; ++c) {
+                const int t = twin_[static_cast<std::size_t>(c) * numNodes_ + I];
                 if (t >= 0) f(t);
             }
     }
@@ -75,6 +90,8 @@ private:
     std::vector<int> marked_;  ///< marked regular nodes, ascending
     std::vector<int> twin_;    ///< twin_[c * numNodes + I], -1 if crack c gives I no twin
     int numNodes_ = 0, numTwins_ = 0;
+    int layers_ = 0;  ///< layers of twin_: the cracks, or the bodies (updateBodies)
+    void reset(int numNodes, int layers);
 };
 
 }  // namespace emp

@@ -40,8 +40,10 @@ template <int D, class K> void Solver<D, K>::step(double dt, int nThreads)
     checkTimeStep(dt);                     // dt <= h / (c + v_max)
     schedulePoints(nThreads);              // binning and colouring (Scheduler)
     markCrackedNodes();                    // phantom nodes for the cracks' position (3.3.1)
+    markBodyNodes();                       //     or a field per body where bodies meet
     clearGrid(nThreads);
     particleToGrid(nThreads);              // (1) nodal mass and momentum, Eqs 12, 25
+    bodyGradients();                       //     the bodies' normals at the nodes they share
     nodalVelocity(nThreads);               // (2) nodal velocity, Eq 26
     applyConditionsAfterVelocity(dt);      //     essential conditions (GridCondition)
     stressAndInternalForce(dt, nThreads);  // (3) strain increment, split, history, Eqs 27, 2-7, 21-22
@@ -90,11 +92,57 @@ template <int D, class K> void Solver<D, K>::schedulePoints(int nThreads)
 
 template <int D, class K> void Solver<D, K>::markCrackedNodes()
 {
+    mapping_ = 0;
     if (phantom_.empty()) return;
     auto& g = grid_;
     // Marked nodes and their twins for the cracks' current position (Section 3.3.1), as many
     // rings of cells around the cut cells as the kernel's support reaches.
     g.setTwins(phantom_.update(g, K::crackRings));
+    mapping_ = 1;
+    markedBox();
+}
+
+template <int D, class K> void Solver<D, K>::markBodyNodes()
+{
+    // Bodies in one grid: the nodes that points of two or more bodies reach (any node of their
+    // S^D supports), with a twin per further body (PhantomNodes::updateBodies). Serial, one
+    // stencil per point: only scenes with several bodies pay it.
+    if (!points_.bodies) return;
+    auto& g = grid_;
+    bodyReach_.assign(g.numNodes(), 0);
+    int bodies = 1;
+    St st;
+    for (std::size_t p = 0; p < points_.size(); ++p) {
+        st.compute(points_.x[p], g, lp_);
+        const int b = points_.body[p];
+        bodies = std::max(bodies, b + 1);
+        const std::uint64_t bit = std::uint64_t(1) << b;
+        for (int k = 0; k < St::NS; ++k) bodyReach_[st.regularNode(g, k)] |= bit;
+    }
+    g.setTwins(phantom_.updateBodies(g, bodyReach_, bodies));
+    mapping_ = phantom_.markedNodes().empty() ? 0 : 2;
+    markedBox();
+}
+
+template <int D, class K> void Solver<D, K>::bodyGradients()
+{
+    // Each field's mass gradient sum m_p grad N_I at the nodes the bodies share (their normals):
+    // the points that reach a marked node are those whose support was remapped.
+    if (mapping_ != 2) return;
+    auto& G = bodyContact_.gradient;
+    G.assign(grid_.totalNodes(), Vec<D>::Zero());
+    const auto& order = schedule_.order();
+    for (std::size_t k = 0; k < order.size(); ++k) {
+        const St& st = stencil_[k];
+        if (st.remap < 0) continue;
+        const double m = points_.mass[order[k]];
+        st.forEach(grid_, [&](int I, double, const Vec<D>& grad) { G[I] += m * grad; });
+    }
+}
+
+template <int D, class K> void Solver<D, K>::markedBox()
+{
+    auto& g = grid_;
     // Box (in node indices) of the marked nodes: points whose support lies outside it skip the
     // per-node test, so the cost follows the marked region.
     for (int d = 0; d < D; ++d) {
@@ -129,7 +177,7 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
     // here once per point and kept for the stress/force pass and G2P.
     auto& P = points_;
     auto& g = grid_;
-    const bool cracks = !phantom_.empty();
+    const int mapping = mapping_;
     const auto& order = schedule_.order();
     // One instantiation per transfer, so that FLIP's is the paper's loop alone (the inliner
     // then treats it as before the APIC option existed: bench_block checksums and speed).
@@ -138,7 +186,12 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
             const int p = order[k];
             St& st = stencil_[k];
             st.compute(P.x[p], g, lp_);
-            if (cracks && st.overlaps(markedLo_, markedHi_)) st.mapAcrossCracks(P.x[p], g, phantom_, k);
+            if (mapping && st.overlaps(markedLo_, markedHi_)) {
+                if (mapping == 1)
+                    st.mapAcrossCracks(P.x[p], g, phantom_, k);
+                else
+                    st.mapBodies(P.body[p], g, phantom_, k);
+            }
             const double mp = P.mass[p];
             const Vec<D> mv = mp * P.v[p];
             if constexpr (!decltype(apic)::value) {
@@ -181,6 +234,7 @@ template <int D, class K> void Solver<D, K>::applyConditionsAfterVelocity(double
 {
     GridState<D> s{grid_, points_, phantom_, std::max(time_ - 0.5 * dt, 0.0), dt};
     if (crackContact_ && !phantom_.empty()) crackContact_->afterNodalVelocity(s);
+    if (mapping_ == 2) bodyContact_.template apply<false>(grid_, phantom_, dt);
     for (auto& c : conditions_) c->afterNodalVelocity(s);
 }
 
@@ -304,7 +358,10 @@ template <int D, class K> typename Solver<D, K>::St Solver<D, K>::stencilOf(int 
 {
     St st;
     st.compute(points_.x[p], grid_, lp_);
-    if (!phantom_.empty()) st.mapAcrossCracks(points_.x[p], grid_, phantom_, static_cast<int>(points_.size()));
+    if (!phantom_.empty())
+        st.mapAcrossCracks(points_.x[p], grid_, phantom_, static_cast<int>(points_.size()));
+    else if (mapping_ == 2)
+        st.mapBodies(points_.body[p], grid_, phantom_, static_cast<int>(points_.size()));
     return st;
 }
 
@@ -355,6 +412,7 @@ template <int D, class K> void Solver<D, K>::applyConditionsAfterForces(double d
         contactWork_ += contact_->work;
     }
     if (crackContact_ && !phantom_.empty()) crackContact_->afterForces(s);
+    bodyContact_.pairsInContact = mapping_ == 2 ? bodyContact_.template apply<true>(grid_, phantom_, dt) : 0;
     for (auto& c : conditions_) c->afterForces(s);
 }
 
@@ -700,9 +758,35 @@ template <int D, class K> double Solver<D, K>::criticalTimeStep() const
 
 template <int D, class K> int Solver<D, K>::addCrack(const std::vector<Eigen::Vector3d>& vertices)
 {
+    require(!points_.bodies, "crack", "in an engine with several bodies",
+            "cracks only in an engine whose points are all in body 0 (a crack and bodies in one grid "
+            "both use the phantom twins; use one engine per cracked body)");
     std::vector<Vec<D>> v;
     for (const auto& p : vertices) v.push_back(p.head<D>());
     return phantom_.addCrack(v);
+}
+
+template <int D, class K> void Solver<D, K>::setPointBodies(int first, int count, int body)
+{
+    const int n = static_cast<int>(points_.size());
+    require(body >= 0 && body < 64, "body", body, "0 <= body <= 63");
+    require(first >= 0 && count >= 0 && first + count <= n, "points", std::to_string(first) + " + " + std::to_string(count),
+            "points of this engine (0 .. " + std::to_string(n) + ")");
+    require(phantom_.empty() || body == 0, "body", body,
+            "0 in an engine with pre-existing cracks (a crack and bodies in one grid both use the phantom "
+            "twins; use one engine per cracked body)");
+    if (body == 0 && !points_.bodies) return;
+    if (!points_.bodies) {
+        points_.bodies = true;
+        points_.body.assign(points_.size(), 0);
+    }
+    std::fill(points_.body.begin() + first, points_.body.begin() + first + count, body);
+}
+
+template <int D, class K> void Solver<D, K>::setBodyFriction(double friction)
+{
+    require(std::isfinite(friction) && friction >= 0, "bodyFriction", friction, "0 <= bodyFriction < inf");
+    bodyContact_.friction = friction;
 }
 
 // =============================================================================================

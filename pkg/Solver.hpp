@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "BodyContact.hpp"
+#include "BodyFieldContact.hpp"
 #include "BoundaryConditions.hpp"
 #include "CrackFaceContact.hpp"
 #include "Configurations.hpp"
@@ -96,6 +97,17 @@ public:
     /// id. Its vertices then move with the material.
     int addCrack(const std::vector<Eigen::Vector3d>& vertices);
     const PhantomNodes<D>& phantomNodes() const { return phantom_; }
+    /// Puts points first .. first + count - 1 in body `body` (0 to 63; every point starts in
+    /// body 0). Bodies in one grid do not bond: where their points reach the same nodes, each has
+    /// its own velocity field there, and contact (BodyFieldContact.hpp) keeps them from passing
+    /// through each other, with Coulomb friction bodyFriction(), and lets them separate. Not
+    /// with pre-existing cracks (ParameterError).
+    void setPointBodies(int first, int count, int body);
+    int pointBody(int p) const { return points_.bodies ? points_.body[p] : 0; }
+    void setBodyFriction(double friction);
+    double bodyFriction() const { return bodyContact_.friction; }
+    /// Field pairs in contact between bodies after the forces in the last step.
+    int bodyContactPairs() const { return bodyContact_.pairsInContact; }
 
     // --- time stepping ------------------------------------------------------------------
     /// APIC: sets point p's affine velocity (its velocity gradient, 1/s) for the next transfer,
@@ -166,8 +178,11 @@ private:
     void checkTimeStep(double dt);
     void schedulePoints(int nThreads);
     void markCrackedNodes();
+    void markBodyNodes();
+    void markedBox();
     void clearGrid(int nThreads);
     void particleToGrid(int nThreads);
+    void bodyGradients();
     void nodalVelocity(int nThreads);
     void applyConditionsAfterVelocity(double dt);
     void stressAndInternalForce(double dt, int nThreads);
@@ -219,6 +234,10 @@ private:
     };
     PhantomNodes<D> phantom_;
     int markedLo_[D] = {}, markedHi_[D] = {};  ///< box of the marked nodes, node indices
+    /// How supports map onto twins in this step: 0 not at all, 1 across cracks, 2 by body.
+    int mapping_ = 0;
+    BodyFieldContact<D> bodyContact_;
+    std::vector<std::uint64_t> bodyReach_;  ///< per regular node: a bit per body whose points reach it
     std::vector<std::shared_ptr<VelocityCondition<D>>> velocityConditions_;
     std::vector<std::shared_ptr<GridCondition<D>>> conditions_;
     std::vector<TractionCondition> tractions_;

@@ -10,7 +10,8 @@ namespace emp {
 
 namespace {
 const char* kFormat = "EigenMPM solver state";
-constexpr std::uint32_t kVersion = 3;  // 2: transfer, stress update, energy diagnostics; 3: contact work, crack-face contact
+constexpr std::uint32_t kVersion = 4;  // 2: transfer, stress update, energy diagnostics; 3: contact work, crack-face contact;
+                                       // 4: bodies in one grid (point body ids, their friction)
 }  // namespace
 
 StateHeader readStateHeader(std::istream& is)
@@ -65,6 +66,8 @@ template <int D, class K> void Solver<D, K>::saveState(std::ostream& os) const
     w.value(contactWork_);
     w.value(crackContact_ != nullptr);
     w.value(crackContact_ ? crackContact_->friction : 0.0);
+    w.value(points_.bodies);
+    w.value(bodyContact_.friction);
     w.value(grid_.origin);
     w.value(grid_.n);
 
@@ -159,6 +162,10 @@ template <int D, class K> std::shared_ptr<Solver<D, K>> Solver<D, K>::loadState(
         const double friction = r.value<double>();
         if (crackContact) s->setCrackContact(true, friction);
     }
+    if (h.version >= 4) {
+        s->points_.bodies = r.value<bool>();
+        s->bodyContact_.friction = r.value<double>();
+    }
     const auto origin = r.value<Vec<D>>();
     const auto n = r.value<std::array<int, D>>();
     if (initialized) {
@@ -177,6 +184,7 @@ template <int D, class K> std::shared_ptr<Solver<D, K>> Solver<D, K>::loadState(
     r.expect("points");
     s->points_.forEachArray([&](const char* name, auto& a) {
         if (h.version < 2 && s->points_.expectedLength(name) == 0) return;  // (optional arrays came with 2)
+        if (h.version < 4 && std::string(name) == "body") return;          // (and the bodies with 4)
         r.expect(name);
         r.array(a);
         if (a.size() != s->points_.expectedLength(name))

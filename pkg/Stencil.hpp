@@ -41,6 +41,20 @@ template <int D, class K> struct Stencil {
     /// when any node is marked.
     void mapAcrossCracks(const Vec<D>& x, Grid<D>& g, const PhantomNodes<D>& ph, int slot)
     {
+        mapMarked(g, ph, slot, [&](int I) { return ph.map(x, I, g.nodePosition(I)); });
+    }
+
+    /// Bodies in one grid (PhantomNodes::updateBodies): a point of `body` uses that body's twin of
+    /// each marked node.
+    void mapBodies(int body, Grid<D>& g, const PhantomNodes<D>& ph, int slot)
+    {
+        mapMarked(g, ph, slot, [&](int I) { return ph.mapBody(body, I); });
+    }
+
+    /// Replaces each marked support node I by f(I), writing the S^D node indices into slot
+    /// `slot` of Grid::remap, when any node is marked.
+    template <class F> void mapMarked(Grid<D>& g, const PhantomNodes<D>& ph, int slot, F&& f)
+    {
         int node[NS];
         bool any = false;
         for (int k = 0; k < NS; ++k) {
@@ -49,7 +63,7 @@ template <int D, class K> struct Stencil {
         }
         if (!any) return;
         for (int k = 0; k < NS; ++k)
-            if (ph.marked(node[k])) node[k] = ph.map(x, node[k], g.nodePosition(node[k]));
+            if (ph.marked(node[k])) node[k] = f(node[k]);
         remap = slot * NS;
         std::copy(node, node + NS, &g.remap[remap]);
     }

@@ -635,6 +635,14 @@ template <class Sv> struct Bind {
             .def("setErosion", &setErosion)
             .def("setContact", &setContact)
             .def("setCrackContact", &Sv::setCrackContact, (bp::arg("on"), bp::arg("friction")))
+            .def("setPointBodies", &Sv::setPointBodies, (bp::arg("first"), bp::arg("count"), bp::arg("body")))
+            .def("pointBody", +[](const Sv& s, int p) {
+                require(p >= 0 && p < static_cast<int>(s.points().size()), "point", p, "a point id of this engine");
+                return s.pointBody(p);
+            }, (bp::arg("point")))
+            .def("setBodyFriction", &Sv::setBodyFriction, (bp::arg("friction")))
+            .add_property("bodyFriction", &Sv::bodyFriction)
+            .add_property("bodyContactPairs", &Sv::bodyContactPairs, "field pairs of different bodies in contact after the forces in the last step")
             .add_property("crackContactPairs", +[](const Sv& s) { return s.crackContact() ? s.crackContact()->pairsInContact : 0; },
                           "(node, twin) pairs of the crack faces in contact after the forces of the last step")
             .add_property("contact", +[](const Sv& s) { return s.contact(); })

@@ -174,6 +174,9 @@ def _isSelection(sel):
 _MATERIAL = Param("material", None, "", "the material of the points", kind="object", required=True,
                   accepts="an ElasticMaterial", check=lambda m: isinstance(m, ElasticMaterial))
 _VELOCITY = Param("velocity", (0.0, 0.0, 0.0), "m/s", "initial velocity of the points")
+_BODY = Param("body", 0, "", "the body the points belong to: points of different bodies do not bond; "
+                             "they touch (with bodyFriction) and separate (doc/contact.md)",
+              kind="int", bounds="[0, 63]")
 
 
 def _array(value, name, owner):
@@ -258,6 +261,8 @@ class MpmEngine(PyRunner):
                                          "the paper's phantom nodes, whose faces interpenetrate", fixed=True),
         Param("crackFriction", 0.0, "", "Coulomb friction coefficient between the faces of the pre-existing "
                                         "cracks (with crackContact)", bounds="[0, inf)", fixed=True),
+        Param("bodyFriction", 0.0, "", "Coulomb friction coefficient between the bodies of this engine "
+                                       "(points filled with different body ids)", bounds="[0, inf)", fixed=True),
     )
 
     def __init__(self, **kw):
@@ -273,6 +278,7 @@ class MpmEngine(PyRunner):
             self.solver.setDomain(*self.domain)
         if self.crackContact:
             self.solver.setCrackContact(True, self.crackFriction)
+        self.solver.setBodyFriction(self.bodyFriction)
         self.iterPeriod, self.initRun = 1, True
         self.command = _register(self)
         self.bcs = {}
@@ -330,11 +336,13 @@ class MpmEngine(PyRunner):
             self._materials[key] = (mat, self.solver.addMaterial(*args))
         return self._materials[key][1]
 
-    def addPoints(self, positions, material, volumes, velocities=None):
+    def addPoints(self, positions, material, volumes, velocities=None, body=0):
         """Adds points at `positions` (n x 3, or n x 2 in 2D; m) with `volumes` (one value or n
-        values, m^3; in 2D area x thickness) and `velocities` (one vector or n x 3, m/s).
-        Returns the ids of the new points."""
+        values, m^3; in 2D area x thickness) and `velocities` (one vector or n x 3, m/s), in body
+        `body` (0-63: bodies touch and separate, doc/contact.md). Returns the ids of the new
+        points."""
         owner = "MpmEngine.addPoints"
+        body = _BODY.validate(body, owner)
         pos = _array(positions, "positions", owner)
         if pos.ndim == 1 and pos.size in (2, 3):
             pos = pos[None, :]
@@ -369,17 +377,22 @@ class MpmEngine(PyRunner):
         vol = np.ascontiguousarray(np.broadcast_to(vol.reshape(-1), (n,)))
         vel = np.ascontiguousarray(np.broadcast_to(vel, (n, 3)))
         first = self.solver.addPoints(pos, vel, vol, mid)
+        if body:
+            self.solver.setPointBodies(first, n, body)
         self.referencePositions = np.concatenate([self.referencePositions, pos])
         return np.arange(first, first + n)
 
-    def fill(self, predicate, material, velocity=(0, 0, 0)):
+    def fill(self, predicate, material, velocity=(0, 0, 0), body=0):
         """Fills a ``yade.pack`` predicate (or any callable ``pred(point, pad)``) with points on
         the regular lattice of ppc points per cell per direction, aligned with the grid (points at
         cell fractions (i + 1/2)/ppc). In 2D the predicate is evaluated in the plane z = middle of
-        its bounding box (z = 0 if unbounded). Returns the ids of the new points."""
+        its bounding box (z = 0 if unbounded). Points of different `body` ids (0-63) do not bond:
+        they touch, with bodyFriction, and separate (doc/contact.md). Returns the ids of the new
+        points."""
         from .builders import latticePoints
         owner = "MpmEngine.fill"
         _MATERIAL.validate(material, owner)
+        _BODY.validate(body, owner)
         velocity = _VELOCITY.validate(velocity, owner)
         _planar(velocity, "velocity", self.dim, owner)
         vol = (self.h / self.ppc) ** self.dim * (self.thickness if self.dim == 2 else 1.0)
@@ -392,7 +405,7 @@ class MpmEngine(PyRunner):
         if len(pos) == 0:
             raise ValueError(f"EigenMPM: the predicate {predicate!r} holds no lattice point at h = "
                              f"{self.h}, ppc = {self.ppc}; check its extent")
-        return self.addPoints(pos, material, vol, velocity)
+        return self.addPoints(pos, material, vol, velocity, body)
 
     def pointsIn(self, predicate, pad=0.0):
         """Ids of the points whose current position satisfies ``predicate(x, pad)``."""

@@ -120,8 +120,8 @@ TYPED_TEST(StateTest, ArchivesThatCannotBeRestoredAreRefused)
     other[versionAt] = static_cast<char>(other[versionAt] + 1);
     std::stringstream sv(other);
     const std::string mv = emptest::messageOf<emp::SimulationError>([&] { Sv::loadState(sv); });
-    EXPECT_TRUE(emptest::contains(mv, "format version 4")) << mv;
-    EXPECT_TRUE(emptest::contains(mv, "reads versions 1 to 3")) << mv;
+    EXPECT_TRUE(emptest::contains(mv, "format version 5")) << mv;
+    EXPECT_TRUE(emptest::contains(mv, "reads versions 1 to 4")) << mv;
     // Not a state at all.
     std::stringstream junk(std::string(200, 'x'));
     EXPECT_THROW(Sv::loadState(junk), emp::SimulationError);

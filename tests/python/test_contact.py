@@ -283,9 +283,11 @@ def test_impact_showcase_quick(tmp_path):
         assert (tmp_path / name).exists(), name
 
 
-def test_colliding_bars_exchange_their_velocities(tmp_path):
-    s = run_example("colliding_bars", tmp_path, "--quick", "plot=0")
-    # h = 2 mm measured: contact 1.019 x 2L/c, velocities after -0.942 / +0.942 v0, energy -0.27 %
+@pytest.mark.parametrize("interface", ["bodies", "crack"])
+def test_colliding_bars_exchange_their_velocities(tmp_path, interface):
+    s = run_example("colliding_bars", tmp_path, "--quick", "plot=0", f"interface={interface}")
+    # h = 2 mm measured, either interface: contact 1.019 x 2L/c, velocities after -0.942 / +0.942 v0,
+    # energy -0.27 %
     assert abs(s["contact_time_over_2L_c"] - 1) < 0.03
     va, vb = s["velocity_after_over_v0"]
     assert va < -0.9 and vb > 0.9
@@ -311,3 +313,40 @@ def test_contact_results_do_not_depend_on_the_thread_count(crackContact):
         return np.concatenate([mpm.solver.positions().ravel(), mpm.solver.velocities().ravel(),
                                np.array(O.bodies[ball].state.vel)])
     assert np.array_equal(run(1), run(2))
+
+
+def test_bodies_of_one_engine_touch_separate_and_restart_bitwise(tmp_path):
+    """Two blocks of one MpmEngine filled with different body ids (issue 16 item 2): pressed
+    together they bounce apart (no bonding, no interpenetration); the run saves and loads
+    bitwise; bad body ids and a crack among bodies are refused."""
+    def scene():
+        O.reset()
+        mpm = em.MpmEngine(dim=2, h=0.002, thickness=0.01, label="blocks", bodyFriction=0.2,
+                           domain=((-0.02, -0.02, 0), (0.06, 0.06, 0)))
+        mat = em.ElasticMaterial(E=1e7, nu=0.3, rho=1000)
+        low = mpm.fill(pack.inAlignedBox((0, 0, -1), (0.04, 0.01, 1)), mat, velocity=(0, 2.0, 0))
+        up = mpm.fill(pack.inAlignedBox((0, 0.01, -1), (0.04, 0.02, 1)), mat, velocity=(0, -2.0, 0), body=1)
+        O.engines = [mpm]
+        O.dt = 0.3 * mpm.criticalTimeStep()
+        return mpm, low, up
+
+    mpm, low, up = scene()
+    assert mpm.solver.pointBody(int(up[0])) == 1 and mpm.solver.pointBody(int(low[0])) == 0
+    O.run(100, True)
+    f = str(tmp_path / "blocks.yade")
+    O.save(f)
+    O.run(300, True)
+    x, v = mpm.solver.positions().copy(), mpm.solver.velocities().copy()
+    assert v[up, 1].mean() > 1.0 and v[low, 1].mean() < -1.0  # bounced apart
+    assert x[up, 1].min() > x[low, 1].max()                    # never through each other
+    assert mpm.solver.bodyContactPairs == 0
+    O.load(f)
+    mpm = em.findEngine("blocks")
+    O.run(300, True)
+    assert np.array_equal(mpm.solver.positions(), x) and np.array_equal(mpm.solver.velocities(), v)
+
+    mpm, _, _ = scene()
+    with pytest.raises(ValueError, match="body = 64 is invalid"):
+        mpm.fill(pack.inAlignedBox((0, 0.03, -1), (0.01, 0.04, 1)), em.ElasticMaterial(E=1e7, nu=0.3, rho=1000), body=64)
+    with pytest.raises(ValueError, match="crack"):
+        mpm.crack([(0.02, -0.003, 0), (0.02, 0.01, 0)])

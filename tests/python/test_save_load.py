@@ -166,8 +166,9 @@ def test_saved_solver_state_of_another_version_is_refused():
     mpm = plate()
     O.run(5, True)
     data = bytearray(mpm.solver.saveState())
-    data[8 + len("EigenMPM solver state")] += 1
-    with pytest.raises(RuntimeError, match="format version 4"):
+    at = 8 + len("EigenMPM solver state")
+    data[at] += 1
+    with pytest.raises(RuntimeError, match=f"format version {data[at]}; this EigenMPM reads versions 1 to {data[at] - 1}"):
         em._eigenmpm.solverFromState(bytes(data))
 
 
