@@ -186,12 +186,7 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
             const int p = order[k];
             St& st = stencil_[k];
             st.compute(P.x[p], g, lp_);
-            if (mapping && st.overlaps(markedLo_, markedHi_)) {
-                if (mapping == 1)
-                    st.mapAcrossCracks(P.x[p], g, phantom_, k);
-                else
-                    st.mapBodies(P.body[p], g, phantom_, k);
-            }
+            if (mapping && st.overlaps(markedLo_, markedHi_)) mapSupport(st, p, k);
             const double mp = P.mass[p];
             const Vec<D> mv = mp * P.v[p];
             if constexpr (!decltype(apic)::value) {
@@ -358,11 +353,17 @@ template <int D, class K> typename Solver<D, K>::St Solver<D, K>::stencilOf(int 
 {
     St st;
     st.compute(points_.x[p], grid_, lp_);
-    if (!phantom_.empty())
-        st.mapAcrossCracks(points_.x[p], grid_, phantom_, static_cast<int>(points_.size()));
-    else if (mapping_ == 2)
-        st.mapBodies(points_.body[p], grid_, phantom_, static_cast<int>(points_.size()));
+    if (!phantom_.empty() || mapping_ == 2) mapSupport(st, p, static_cast<int>(points_.size()));
     return st;
+}
+
+// Out of line, so that P2G's loop stays the same for scenes without cracks or bodies.
+template <int D, class K> EMP_NOINLINE void Solver<D, K>::mapSupport(St& st, int p, int slot)
+{
+    if (mapping_ == 2)
+        st.mapBodies(points_.body[p], grid_, phantom_, slot);
+    else
+        st.mapAcrossCracks(points_.x[p], grid_, phantom_, slot);
 }
 
 template <int D, class K> void Solver<D, K>::erode(double dt, int nThreads)

@@ -204,6 +204,9 @@ private:
     void scatterInternalForce(int p, const St& st, const Vec<D>& gravity);
     /// The stencil of one point computed on its own (serial stages: erosion, tractions).
     St stencilOf(int p);
+    /// Maps point p's support onto the twins of this step (across the cracks, or its body's)
+    /// in slot `slot` of Grid::remap.
+    void mapSupport(St& st, int p, int slot);
     /// APIC's moment matrix diagonal of point p at its current position (Stencil::momentDiagonal).
     Vec<D> momentDiagonalAt(int p) const;
 
