@@ -77,8 +77,15 @@ def test_kalthoff_body_mode_resumes_and_refuses_a_mismatched_resume(tmp_path):
 
 def test_john_shah_bodies_supports_separate_and_never_pull(tmp_path):
     # h = 5.08 mm (3 000 points), gamma = 0.5: measured from the notch at 2841 us, the supports
-    # leaving the broken beam at 2982 and 3046 us
-    s = run("john_shah.py", tmp_path, "loading=bodies", "gamma=0.5", "h_mm=5.08", "dt_us=1.0", "vtkPeriod_us=100000")
+    # leaving the broken beam at 2982 and 3046 us; then resumed from the checkpoint of iteration
+    # 3000 (of 3726) to the same end state
+    params = ("loading=bodies", "gamma=0.5", "h_mm=5.08", "dt_us=1.0", "vtkPeriod_us=100000")
+    s = run("john_shah.py", tmp_path / "a", *params, every=1500)
+    r = run("john_shah.py", tmp_path / "b", *params, resume=tmp_path / "a" / "checkpoints")
+    assert (tmp_path / "a" / "load.csv").read_bytes() == (tmp_path / "b" / "load.csv").read_bytes()
+    for k in s:
+        if k not in ("wall_time_s", "particle_steps_per_s", "resumed_from_iteration"):
+            assert s[k] == r[k], k
     assert s["loading"] == "bodies" and s["crack_origin"] == "notch"
     assert s["notch_crack_points"] > 20 and s["crack_top_fraction"] >= 0.9
     # contact forces push only: the hammer is pushed up, the supports down, in every step
@@ -92,7 +99,8 @@ def test_john_shah_bodies_supports_separate_and_never_pull(tmp_path):
     # the load when the crack started: positive and below the peak; the supports carry about it
     assert 0 < s["notch_initiation_load_N"] <= s["peak_load_N"]
     assert s["notch_initiation_supports_N"] > 0
-    assert (tmp_path / "load.csv").read_text().splitlines()[0] == "t_us,load_N,supports_N,left_support_N,right_support_N"
+    header = (tmp_path / "a" / "load.csv").read_text().splitlines()[0]
+    assert header == "t_us,load_N,supports_N,left_support_N,right_support_N"
 
 
 def test_john_shah_refuses_an_unknown_loading(tmp_path):
