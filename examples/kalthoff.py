@@ -40,15 +40,17 @@ Modelling choices (parameters in brackets):
   at y = 0 acts on grid nodes, not on it) and starts touching the plate's left edge at
   projectileSpeed_m_s. A YADE body is rigid, so the interface starts at the body's speed, not at
   half of it as between the experiment's steel projectile and its steel plate (equal
-  impedances: the paper's 16.5 m/s is half the projectile's 33 m/s). Hence the default body:
-  16.5 m/s, the interface speed of the condition, and projectileMass_kg = 41.34 kg per metre of
-  thickness, which carries the experiment's momentum into the half model: the projectile
-  (steel, 50 mm across, 50 mm long, 0.785 kg at 33 m/s, as the experiment is usually quoted)
-  per plate thickness (19 mm) is 41.34 kg/m, half of it in the half model, at twice the
-  speed. projectileSpeed_m_s=33 projectileMass_kg=20.67 is the experiment's projectile taken
-  rigid (twice the interface speed, the same momentum); projectileMass_kg=inf a kinematic body
-  (infinite mass, constant speed: the condition made unilateral). See doc/contact.md, "The
-  paper's benchmarks with YADE bodies", for the three.
+  impedances: the paper's 16.5 m/s is half the projectile's 33 m/s). Hence the default body
+  (projectileMass_kg = 0): kinematic (not dynamic, infinite mass) at 16.5 m/s, the paper's
+  loading made unilateral. The experiment's projectile (steel, 50 mm across, 50 mm long as the
+  experiment is usually quoted: 0.785 kg) per plate thickness (19 mm) is 41.34 kg per metre,
+  20.67 kg/m in the half model: projectileMass_kg=20.67 projectileSpeed_m_s=33 is that
+  projectile taken rigid (its face starts at twice the interface speed), and
+  projectileMass_kg=41.34 at 16.5 m/s the same momentum at the interface speed. Measured at
+  h = 1 mm: the kinematic body cracks the plate like the condition; the rigid projectile leaves
+  the plate at about 37 us and the crack arrests; the same momentum at 16.5 m/s starts no crack
+  by 110 us. The condition gives the half plate about twice the projectile's momentum by 110 us
+  (doc/contact.md, "The paper's benchmarks with YADE bodies").
 - The symmetry plane y = 0 is fixed in y on the grid nodes of the bottom row (roller).
 - The run ends at endTime_us or stopAfter_us (2 us) after the crack reaches the boundary,
   whichever comes first (stopAfter_us=-1 runs to endTime_us).
@@ -92,8 +94,8 @@ and the default, or APIC), stressUpdate (smallStrain, the paper's and the defaul
 corotational; doc/stability.md), crackContact (0, the paper's and the default: the notch's
 faces pass through each other; 1: they touch, doc/contact.md), projectile (condition, the
 paper's and the default: the velocity condition v0_m_s with the ramp rampTime_us; body: a YADE
-rigid body, see above), projectileSpeed_m_s, projectileMass_kg (kg per metre of thickness; inf:
-kinematic) and projectileLength_mm (projectile=body only; v0_m_s and rampTime_us then unused).
+rigid body, see above), projectileSpeed_m_s, projectileMass_kg (kg per metre of thickness of the
+half model; 0, the default, or inf: kinematic) and projectileLength_mm (projectile=body only; v0_m_s and rampTime_us then unused).
 With projectile=body the summary adds the projectile's speed at the start, at initiation and
 at the end, its peak force and the impulse it gave the plate (per metre of thickness), the
 momentum it lost, and when it lost contact (projectile_*), and the VTK series has the plate's
@@ -211,8 +213,8 @@ def dynamicMass(m):
 class ProjectileWatch:
     """Records the projectile (projectile=body; a callEvery every step, after the
     NewtonIntegrator): rows of time, its x velocity, the x force of the points on it in this
-    step, the points in contact. A class at the top level so that a
-    checkpoint saves it with its record."""
+    step, the points in contact. A class at the top level so that a checkpoint saves it with its
+    record."""
 
     def __init__(self, mpm, contact, body):
         self.mpm, self.contact, self.body = mpm, contact, body
