@@ -35,8 +35,9 @@ Modelling choices (parameters in brackets):
   supports pull on it: the reactions after fracture are not physical.
 - [loading = condition] loading=bodies replaces the three conditions by YADE bodies and
   `eigenmpm.BodyContact` (frictionless): two fixed spheres of radius supportRadius_mm (6.35 mm)
-  whose tops touch the beam's bottom edge at x = -+L/2 (in 2D a disc: a roller across the
-  thickness), and a hammer, a box loadWidth_mm wide and hammerHeight_mm (10 mm) high on the top
+  under the beam at x = -+L/2, each just touching the nearest point of the bottom row (in 2D a
+  disc: a roller across the thickness; with its top at y = 0 a support between two columns of
+  points would leave a gap, 32 um at h = 2.54 mm, through which the beam falls first), and a hammer, a box loadWidth_mm wide and hammerHeight_mm (10 mm) high on the top
   edge at the midspan, not dynamic, moved down along Eq 35 by HammerDriver (its velocity in each
   step is the ramp's displacement over that step / dt, so it is where the ramp puts it at every
   step). Contacts only push: the beam may leave the hammer and the supports (unilateral), as it
@@ -102,6 +103,7 @@ following at 2834 us (749 s), 0.95 from the midspan at 2820 us (the notch at 293
 the transition lies between 0.875 and 0.9 (doc/validation.md).
 """
 import json
+import math
 import os
 import sys
 import time
@@ -155,7 +157,7 @@ def build(o):
         mpm.crack([(0, -h, 0), (0, o["flaw_mm"] * 1e-3, 0)])
     e = 1e-6 * h
     if o["loading"] == "bodies":
-        load, supports = loadingBodies(o)
+        load, supports = loadingBodies(o, mpm)
     else:
         ws = max(0.5 * o["supportWidth_mm"] * 1e-3, 0.5 * s) + e
         supports = [mpm.velocityBC(points=pack.inAlignedBox((x - ws, -1, -1), (x + ws, s, 1)),
@@ -169,17 +171,27 @@ def build(o):
     return mpm, crack, load, supports
 
 
-def loadingBodies(o):
+def loadingBodies(o, mpm):
     """The supports and the hammer as YADE bodies (loading=bodies). Supports: two fixed spheres
     of radius supportRadius_mm under the beam, their tops touching its bottom edge at x = -+L/2
     (in 2D a sphere centred in the plane z = 0 acts as a disc: a roller across the beam's
-    thickness). Hammer: a box loadWidth_mm wide and hammerHeight_mm high, its lower face on the
+    thickness), raised so that the nearest point of the bottom row just touches it. Hammer: a box loadWidth_mm wide and hammerHeight_mm high, its lower face on the
     beam's top edge at the midspan, not dynamic: HammerDriver moves it down along paper Eq 35.
     The bottom and top rows of points lie h/4 from the bodies, so they touch them from the
     beam's first move. Returns (hammer id, [left support id, right support id])."""
     steel = O.materials.append(FrictMat(density=7800, young=2e11, poisson=0.3, frictionAngle=0, label="steel"))
-    r = o["supportRadius_mm"] * 1e-3
-    supports = [O.bodies.append(utils.sphere((x, -r, 0), r, material=steel, fixed=True)) for x in (-0.5 * L, 0.5 * L)]
+    h = geometry(o)[0]
+    r, w = o["supportRadius_mm"] * 1e-3, 0.25 * h  # w: the points' half-width, where they touch
+    X = mpm.referencePositions
+    bottom = X[X[:, 1] < np.min(X[:, 1]) + 0.1 * h]
+    supports = []
+    for x in (-0.5 * L, 0.5 * L):
+        # the sphere's surface exactly w from the nearest point of the bottom row (y = s/2): with
+        # its top at y = 0 a support between two columns would leave a gap (32 um at h = 2.54 mm,
+        # a third of the load point's travel when the notch cracks), which the beam falls through
+        dx = np.min(np.abs(bottom[:, 0] - x))
+        y = np.min(bottom[:, 1]) - math.sqrt((r + w) ** 2 - dx ** 2)
+        supports.append(O.bodies.append(utils.sphere((x, y, 0), r, material=steel, fixed=True)))
     wl, hh = 0.5e-3 * o["loadWidth_mm"], 0.5e-3 * o["hammerHeight_mm"]
     hammer = O.bodies.append(utils.box((0, D + hh, 0), (wl, hh, 0.5 * wl + hh), material=steel, fixed=True))
     return hammer, supports

@@ -76,9 +76,9 @@ def test_kalthoff_body_mode_resumes_and_refuses_a_mismatched_resume(tmp_path):
 
 
 def test_john_shah_bodies_supports_separate_and_never_pull(tmp_path):
-    # h = 5.08 mm (3 000 points), gamma = 0.5: measured from the notch at 2841 us, the supports
-    # leaving the broken beam at 2982 and 3046 us; then resumed from the checkpoint of iteration
-    # 3000 (of 3726) to the same end state
+    # h = 5.08 mm (3 000 points), gamma = 0.5: measured from the notch at 1365 us, the supports
+    # leaving the broken beam at 1501 and 1542 us; then resumed from the checkpoint of iteration
+    # 1500 (of 1565) to the same end state
     params = ("loading=bodies", "gamma=0.5", "h_mm=5.08", "dt_us=1.0", "vtkPeriod_us=100000")
     s = run("john_shah.py", tmp_path / "a", *params, every=1500)
     r = run("john_shah.py", tmp_path / "b", *params, resume=tmp_path / "a" / "checkpoints")
