@@ -37,18 +37,24 @@ Modelling choices (parameters in brackets):
   `eigenmpm.BodyContact` (frictionless): two fixed spheres of radius supportRadius_mm (6.35 mm)
   under the beam at x = -+L/2, each just touching the nearest point of the bottom row (in 2D a
   disc: a roller across the thickness; with its top at y = 0 a support between two columns of
-  points would leave a gap, 32 um at h = 2.54 mm, through which the beam falls first), and a hammer, a box loadWidth_mm wide and hammerHeight_mm (10 mm) high on the top
-  edge at the midspan, not dynamic, moved down along Eq 35 by HammerDriver (its velocity in each
-  step is the ramp's displacement over that step / dt, so it is where the ramp puts it at every
-  step). Contacts only push: the beam may leave the hammer and the supports (unilateral), as it
-  does when it bounces between them and once it is broken. Nothing holds the beam but the
-  bodies (no gravity): it starts just touching them. The contact forces come in steps (each first
-  touch of a node is an impulse), so the load record and the loads at initiation are their means
-  over the last 10 us (LOAD_WINDOW); the summary adds each support's smallest force in any step
-  (>= 0: never a pull), when each lifted off after the crack started (no force for 10 us), the
-  hammer's smallest force, the raw peak, and the supports' force at initiation; DIR/load.csv
-  (both modes) has the record. With the conditions the supports pull once the beam is broken
-  (`support_sum_min_reaction_N` < 0).
+  points would leave a gap, 32 um at h = 2.54 mm, through which the beam falls first), and a
+  hammer, a box loadWidth_mm wide and hammerHeight_mm (10 mm) high on the top edge at the
+  midspan, not dynamic, moved down along Eq 35 by HammerDriver (its velocity in each step is
+  the ramp's displacement over that step / dt, so it is where the ramp puts it at every step).
+  Contacts only push: the beam may leave the hammer and the supports (unilateral), as it does
+  once it is broken. Nothing holds the beam but the bodies (no gravity): it starts just
+  touching them. The contact forces come in steps (each first touch of a node is an impulse),
+  so the load record and the loads at initiation are their means over the last 10 us
+  (LOAD_WINDOW); the summary adds each support's smallest force in any step (>= 0: never a
+  pull), when each lifted off after the crack started (no force for 10 us), the hammer's
+  smallest force, the raw peak, and the supports' force at initiation; DIR/load.csv (both
+  modes) has the record. With the conditions the supports pull once the beam is broken
+  (`support_sum_min_reaction_N` < 0). Measured (one thread): --quick gamma = 0.5 from the notch
+  at 1324 us (conditions 1541 us), 0.85 from the midspan at 1804 us (2228 us), the transition
+  between 0.7 and 0.75 (conditions 0.75-0.8); the default h, gamma = 0.5 from the notch at
+  1408.5 us (1439 us; 641 s), 0.85 from the notch at 2497.4 us (2542 us; 732 s); the cracks
+  start at the conditions' midspan stress, sooner because the beam is stiffer through contacts
+  (doc/validation.md, "With the supports and the hammer as YADE bodies").
 - Crack origin: the eroded points connected (within 2 kappa) to an eroded point within 4 h of
   the notch tip or of the flaw tip form the notch and the midspan cracks; `crack_origin` is the
   one whose first erosion came first ('notch' or 'midspan'; null when neither started) and
@@ -173,12 +179,13 @@ def build(o):
 
 def loadingBodies(o, mpm):
     """The supports and the hammer as YADE bodies (loading=bodies). Supports: two fixed spheres
-    of radius supportRadius_mm under the beam, their tops touching its bottom edge at x = -+L/2
-    (in 2D a sphere centred in the plane z = 0 acts as a disc: a roller across the beam's
-    thickness), raised so that the nearest point of the bottom row just touches it. Hammer: a box loadWidth_mm wide and hammerHeight_mm high, its lower face on the
-    beam's top edge at the midspan, not dynamic: HammerDriver moves it down along paper Eq 35.
-    The bottom and top rows of points lie h/4 from the bodies, so they touch them from the
-    beam's first move. Returns (hammer id, [left support id, right support id])."""
+    of radius supportRadius_mm under the beam at x = -+L/2, each placed so that the nearest
+    point of the bottom row lies exactly a half-width h/4 from it (in 2D a sphere centred in
+    the plane z = 0 acts as a disc: a roller across the beam's thickness). Hammer: a box
+    loadWidth_mm wide and hammerHeight_mm high, its lower face on the beam's top edge at the
+    midspan (the top row of points h/4 below it), not dynamic: HammerDriver moves it down along
+    paper Eq 35. So the beam touches the bodies from its first move. Returns (hammer id, [left
+    support id, right support id])."""
     steel = O.materials.append(FrictMat(density=7800, young=2e11, poisson=0.3, frictionAngle=0, label="steel"))
     h = geometry(o)[0]
     r, w = o["supportRadius_mm"] * 1e-3, 0.25 * h  # w: the points' half-width, where they touch
@@ -384,10 +391,11 @@ def main(argv):
         summary[f"{site}_initiation_load_N"] = P
         # Nominal bending stress at the bottom of the midspan, 3 P L / (2 t D^2), t = thickness h.
         summary[f"{site}_initiation_midspan_stress_Pa"] = 3 * P * L / (2 * h * D * D) if P is not None else None
-        if bodies:  # the supports' force then (10 us mean), the hammer's oscillating about it
+        if bodies:  # the supports' force then (10 us mean)
             summary[f"{site}_initiation_supports_N"] = (float(np.interp(ti * 1e-6, curve[:, 0], curve[:, 2]))
                                                         if ti is not None else None)
-    summary["support_sum_min_reaction_N"] = float(curve[:, 2].min())  # negative: the supports pulled
+    # negative: the supports pulled (loading=bodies: the smallest in any step)
+    summary["support_sum_min_reaction_N"] = float((raw if bodies else curve)[:, 2].min())
     if bodies:
         summary.update(supportSummary(raw, curve, summary["initiation_time_us"]), loading="bodies")
     if bodies:
