@@ -33,6 +33,28 @@ Modelling choices (parameters in brackets):
   starts (supports first at 1406-1577 us, gamma = 0.85 then gave no crack by 3000 us). The
   conditions are bilateral (the API has none that only pushes), so once the beam is broken the
   supports pull on it: the reactions after fracture are not physical.
+- [loading = condition] loading=bodies replaces the three conditions by YADE bodies and
+  `eigenmpm.BodyContact` (frictionless): two fixed spheres of radius supportRadius_mm (6.35 mm)
+  under the beam at x = -+L/2, each just touching the nearest point of the bottom row (in 2D a
+  disc: a roller across the thickness; with its top at y = 0 a support between two columns of
+  points would leave a gap, 32 um at h = 2.54 mm, through which the beam falls first), and a
+  hammer, a box loadWidth_mm wide and hammerHeight_mm (10 mm) high on the top edge at the
+  midspan, not dynamic, moved down along Eq 35 by HammerDriver (its velocity in each step is
+  the ramp's displacement over that step / dt, so it is where the ramp puts it at every step).
+  Contacts only push: the beam may leave the hammer and the supports (unilateral), as it does
+  once it is broken. Nothing holds the beam but the bodies (no gravity): it starts just
+  touching them. The contact forces come in steps (each first touch of a node is an impulse),
+  so the load record and the loads at initiation are their means over the last 10 us
+  (LOAD_WINDOW); the summary adds each support's smallest force in any step (>= 0: never a
+  pull), when each lifted off after the crack started (no force for 10 us), the hammer's
+  smallest force, the raw peak, and the supports' force at initiation; DIR/load.csv (both
+  modes) has the record. With the conditions the supports pull once the beam is broken
+  (`support_sum_min_reaction_N` < 0). Measured (one thread): --quick gamma = 0.5 from the notch
+  at 1324 us (conditions 1541 us), 0.85 from the midspan at 1804 us (2228 us), the transition
+  between 0.7 and 0.75 (conditions 0.75-0.8); the default h, gamma = 0.5 from the notch at
+  1408.5 us (1439 us; 641 s), 0.85 from the notch at 2497.4 us (2542 us; 732 s); the cracks
+  start at the conditions' midspan stress, sooner because the beam is stiffer through contacts
+  (doc/validation.md, "With the supports and the hammer as YADE bodies").
 - Crack origin: the eroded points connected (within 2 kappa) to an eroded point within 4 h of
   the notch tip or of the flaw tip form the notch and the midspan cracks; `crack_origin` is the
   one whose first erosion came first ('notch' or 'midspan'; null when neither started) and
@@ -58,12 +80,16 @@ the VTK series continues in the first run's folder).
 params: gamma, h_mm, kappaOverH, alpha, endTime_us, dt_us, v0_m_s, rampTime_us, overhang_mm,
 flaw_mm, notchWidth_mm, flawWidth_mm, supportWidth_mm, loadWidth_mm, stopAfter_us, vtkPeriod_us, E, nu, rho, Gc,
 transfer (the particle-grid transfer of MpmEngine: FLIP, the paper's and the default, or APIC) and
-stressUpdate (smallStrain, the paper's and the default, or corotational; doc/stability.md). Writes
+stressUpdate (smallStrain, the paper's and the default, or corotational; doc/stability.md),
+loading (condition, the paper's and the default: velocity conditions on the grid; bodies: YADE
+bodies with contact, see above; supportWidth_mm then unused), supportRadius_mm and
+hammerHeight_mm (loading=bodies only; the hammer is loadWidth_mm wide). Writes
 DIR/summary.json (crack_origin, initiation_time_us, notch_/midspan_initiation_time_us and the load
 and nominal midspan bending stress then (notch_/midspan_initiation_load_N, ..._midspan_stress_Pa), the
 crack tops, eroded_elsewhere, peak_load_N, dissipated_energy_J, transfer, stress_update, particles,
-steps, wall_time_s, particle_steps_per_s, ...), DIR/damage.png, DIR/load.png (load-point and support reactions)
-and a VTK series DIR/vtk/beam-*.vtp.
+steps, wall_time_s, particle_steps_per_s, support_sum_min_reaction_N, ...), DIR/damage.png,
+DIR/load.png (load-point and support reactions), DIR/load.csv (the same record) and a VTK series
+DIR/vtk/beam-*.vtp.
 
 --quick: h = 2.54 mm (12 000 points), dt = 0.5 us (critical 0.69 us). Measured on one core:
 gamma = 0.5: crack from the notch at 1541 us, 0.9 D reached and the run stopped at 1773 us
@@ -83,12 +109,14 @@ following at 2834 us (749 s), 0.95 from the midspan at 2820 us (the notch at 293
 the transition lies between 0.875 and 0.9 (doc/validation.md).
 """
 import json
+import math
 import os
 import sys
 import time
 
 import numpy as np
-from yade import O, pack, plot
+from yade import O, pack, plot, utils
+from yade.wrapper import ForceResetter, FrictMat, NewtonIntegrator
 
 import eigenmpm as em
 from eigenmpm import plots
@@ -100,8 +128,9 @@ DEFAULTS = dict(gamma=0.5, h_mm=0.635, kappaOverH=1.15, alpha=2.0, endTime_us=40
                 v0_m_s=0.06, rampTime_us=196.0, overhang_mm=12.7, flaw_mm=1.27, notchWidth_mm=0.0, flawWidth_mm=0.0,
                 supportWidth_mm=2.54, loadWidth_mm=2.54, stopAfter_us=20.0,
                 vtkPeriod_us=100.0, E=31.37e9, nu=0.2, rho=2400.0, Gc=31.1, transfer="FLIP",
-                stressUpdate="smallStrain")
+                stressUpdate="smallStrain", loading="condition", supportRadius_mm=6.35, hammerHeight_mm=10.0)
 QUICK = dict(h_mm=2.54, dt_us=0.5)
+LOADINGS = ("condition", "bodies")
 D, L, L1, A = 0.0762, 0.2286, 0.1016, 0.01905
 
 
@@ -133,16 +162,62 @@ def build(o):
     if wf <= 0:
         mpm.crack([(0, -h, 0), (0, o["flaw_mm"] * 1e-3, 0)])
     e = 1e-6 * h
-    ws = max(0.5 * o["supportWidth_mm"] * 1e-3, 0.5 * s) + e
-    supports = [mpm.velocityBC(points=pack.inAlignedBox((x - ws, -1, -1), (x + ws, s, 1)),
-                               components="y", velocity=(0, 0, 0), label=name)
-                for x, name in ((-0.5 * L, "left"), (0.5 * L, "right"))]
-    wl = max(0.5 * o["loadWidth_mm"] * 1e-3, 0.5 * s) + e
-    load = mpm.velocityBC(points=pack.inAlignedBox((-wl, D - s, -1), (wl, 1, 1)), components="y",
-                          velocity=(0, -o["v0_m_s"], 0), rampTime=o["rampTime_us"] * 1e-6, label="load")
+    if o["loading"] == "bodies":
+        load, supports = loadingBodies(o, mpm)
+    else:
+        ws = max(0.5 * o["supportWidth_mm"] * 1e-3, 0.5 * s) + e
+        supports = [mpm.velocityBC(points=pack.inAlignedBox((x - ws, -1, -1), (x + ws, s, 1)),
+                                   components="y", velocity=(0, 0, 0), label=name)
+                    for x, name in ((-0.5 * L, "left"), (0.5 * L, "right"))]
+        wl = max(0.5 * o["loadWidth_mm"] * 1e-3, 0.5 * s) + e
+        load = mpm.velocityBC(points=pack.inAlignedBox((-wl, D - s, -1), (wl, 1, 1)), components="y",
+                              velocity=(0, -o["v0_m_s"], 0), rampTime=o["rampTime_us"] * 1e-6, label="load")
     crack = em.EigenErosion(engine=mpm, Gc=o["Gc"], alpha=o["alpha"], kappaOverH=o["kappaOverH"],
                             iterPeriod=max(1, int(round(2.0 / o["dt_us"]))))
     return mpm, crack, load, supports
+
+
+def loadingBodies(o, mpm):
+    """The supports and the hammer as YADE bodies (loading=bodies). Supports: two fixed spheres
+    of radius supportRadius_mm under the beam at x = -+L/2, each placed so that the nearest
+    point of the bottom row lies exactly a half-width h/4 from it (in 2D a sphere centred in
+    the plane z = 0 acts as a disc: a roller across the beam's thickness). Hammer: a box
+    loadWidth_mm wide and hammerHeight_mm high, its lower face on the beam's top edge at the
+    midspan (the top row of points h/4 below it), not dynamic: HammerDriver moves it down along
+    paper Eq 35. So the beam touches the bodies from its first move. Returns (hammer id, [left
+    support id, right support id])."""
+    steel = O.materials.append(FrictMat(density=7800, young=2e11, poisson=0.3, frictionAngle=0, label="steel"))
+    h = geometry(o)[0]
+    r, w = o["supportRadius_mm"] * 1e-3, 0.25 * h  # w: the points' half-width, where they touch
+    X = mpm.referencePositions
+    bottom = X[X[:, 1] < np.min(X[:, 1]) + 0.1 * h]
+    supports = []
+    for x in (-0.5 * L, 0.5 * L):
+        # the sphere's surface exactly w from the nearest point of the bottom row (y = s/2): with
+        # its top at y = 0 a support between two columns would leave a gap (32 um at h = 2.54 mm,
+        # a third of the load point's travel when the notch cracks), which the beam falls through
+        dx = np.min(np.abs(bottom[:, 0] - x))
+        y = np.min(bottom[:, 1]) - math.sqrt((r + w) ** 2 - dx ** 2)
+        supports.append(O.bodies.append(utils.sphere((x, y, 0), r, material=steel, fixed=True)))
+    wl, hh = 0.5e-3 * o["loadWidth_mm"], 0.5e-3 * o["hammerHeight_mm"]
+    hammer = O.bodies.append(utils.box((0, D + hh, 0), (wl, hh, 0.5 * wl + hh), material=steel, fixed=True))
+    return hammer, supports
+
+
+class HammerDriver:
+    """Moves the hammer (a body that is not dynamic; a callEvery before the MpmEngine, every
+    step) down along the ramp of paper Eq 35: in the step from t to t + dt its velocity is
+    (u(t + dt) - u(t)) / dt, u the ramp's displacement, so that YADE's NewtonIntegrator puts it
+    where the ramp is at every step, and the contact sees that velocity. A class at the top level
+    so that a checkpoint saves it."""
+
+    def __init__(self, o, hammer):
+        self.v0, self.t0, self.hammer = o["v0_m_s"], o["rampTime_us"] * 1e-6, hammer
+
+    def __call__(self):
+        t, dt = O.time, O.dt
+        v = (rampDisplacement(t + dt, self.v0, self.t0) - rampDisplacement(t, self.v0, self.t0)) / dt
+        O.bodies[self.hammer].state.vel = (0, -v, 0)
 
 
 def connected(X0, ids, seed, radius):
@@ -193,23 +268,67 @@ class LoadWatch:
     the top level, not a local function, so that a checkpoint saves it with its record and
     --resume continues it."""
 
-    def __init__(self, o, mpm, crack, load, supports):
+    def __init__(self, o, mpm, crack, load, supports, contact=None):
         self.o = dict(o)
         self.mpm, self.crack, self.load, self.supports = mpm, crack, load, list(supports)
+        self.contact = contact  # loading=bodies: load and supports are YADE body ids
+        self.checkEvery = 1  # look for a crack at 0.9 D every this many calls
         self.curve = []
         self.at = None  # when a crack reached 0.9 D, s
 
+    def reactions(self):
+        """(load, left support, right support), N, positive in compression: the conditions'
+        reactions, or the forces of the points on the bodies (loading=bodies)."""
+        if self.contact is None:
+            return -self.load.reaction[1], self.supports[0].reaction[1], self.supports[1].reaction[1]
+        f = self.contact.force
+        return float(f(self.load)[1]), -float(f(self.supports[0])[1]), -float(f(self.supports[1])[1])
+
     def __call__(self):
-        o, mpm, load, supports = self.o, self.mpm, self.load, self.supports
+        o, mpm = self.o, self.mpm
         X0 = mpm.referencePositions
-        self.curve.append((mpm.solver.time, -load.reaction[1], supports[0].reaction[1] + supports[1].reaction[1]))
-        if self.at is None and self.crack.core.erodedCount:
+        P, left, right = self.reactions()
+        if self.contact is None:
+            self.curve.append((mpm.solver.time, P, left + right))
+        else:  # with each support's own force
+            self.curve.append((mpm.solver.time, P, left + right, left, right))
+        if self.at is None and self.crack.core.erodedCount and len(self.curve) % self.checkEvery == 0:
             ev = self.crack.core.events()
             kappa = o["kappaOverH"] * geometry(o)[0]
             if np.max(X0[[e[0] for e in ev], 1]) >= 0.9 * D and analyse(o, X0, ev, kappa)["crack_top_fraction"] >= 0.9:
                 self.at = mpm.solver.time
         if self.at is not None and o["stopAfter_us"] >= 0 and mpm.solver.time >= self.at + o["stopAfter_us"] * 1e-6:
             O.pause()
+
+
+LOAD_WINDOW = 10e-6  # s: the mean of the contact forces (loading=bodies) over this window before each time
+
+
+def windowMean(t, f, window):
+    """The mean of each column of f over the rows with t in (t_i - window, t_i], for every row i
+    (t ascending, one row per step)."""
+    c = np.vstack([np.zeros((1, f.shape[1])), np.cumsum(f, axis=0)])
+    j = np.searchsorted(t, t - window + 1e-12, side="left")
+    i = np.arange(len(t)) + 1
+    return (c[i] - c[j]) / (i - j)[:, None]
+
+
+def supportSummary(raw, smooth, initiation_us):
+    """loading=bodies: each support's smallest force in any step (N, positive in compression: a
+    contact never pulls), the first time after the crack started at which a support had carried
+    nothing for LOAD_WINDOW (it had lifted off the beam), the share of the time after that
+    start without force over LOAD_WINDOW, and whether each carried force in the last
+    LOAD_WINDOW."""
+    t, res = smooth[:, 0], {}
+    after = t >= (initiation_us or np.inf) * 1e-6
+    for k, side in ((3, "left"), (4, "right")):
+        f = smooth[:, k]
+        free = after & (f <= 0)
+        res[f"{side}_support_min_force_N"] = float(raw[:, k].min())
+        res[f"{side}_support_lift_off_us"] = 1e6 * float(t[free][0]) if free.any() else None
+        res[f"{side}_support_free_share_after_initiation"] = float(free.sum() / after.sum()) if after.any() else None
+        res[f"{side}_support_in_contact_at_end"] = bool(f[-1] > 0)
+    return res
 
 
 def main(argv):
@@ -221,19 +340,34 @@ def main(argv):
     h, s, half, xn = geometry(o)
     kappa = o["kappaOverH"] * h
     steps = int(round(o["endTime_us"] / o["dt_us"]))
+    if o["loading"] not in LOADINGS:
+        raise SystemExit(f"john_shah: loading = {o['loading']!r} is invalid; allowed: {', '.join(LOADINGS)}")
+    bodies = o["loading"] == "bodies"
     if resume:  # the scene, its engines and the load record as checkpointed (doc/restart.md)
         em.checkpoint.resume(resume)
         mpm = em.findEngine("beam")
-        (crack,) = mpm.physics.values()
+        (crack,) = [e for e in mpm.physics.values() if isinstance(e, em.EigenErosion)]
         (watch,) = [e.function for e in O.engines if isinstance(getattr(e, "function", None), LoadWatch)]
+        if bodies != (watch.contact is not None):
+            raise SystemExit(f"john_shah: --resume {resume}: the checkpoint was saved with loading="
+                             f"{'bodies' if watch.contact is not None else 'condition'}; give the same parameters "
+                             f"(loading={o['loading']})")
     else:
         mpm, crack, load, supports = build(o)
         O.dt = o["dt_us"] * 1e-6
-        watch = LoadWatch(o, mpm, crack, load, supports)
+        contact = em.BodyContact(engine=mpm, bodies=[load] + supports, label="contact") if bodies else None
+        watch = LoadWatch(o, mpm, crack, load, supports, contact)
+        if bodies:
+            watch.checkEvery = crack.iterPeriod
         vtk = em.VTKRecorder(fileName=os.path.join(out, "vtk", "beam-"),
                              iterPeriod=max(1, int(round(o["vtkPeriod_us"] / o["dt_us"]))))
+        # every step, so that the record holds each step's contact forces
+        period = 1 if bodies else crack.iterPeriod
         O.engines = [mpm, crack, em.PlotRecorder(iterPeriod=crack.iterPeriod),
-                     em.callEvery(watch, iterPeriod=crack.iterPeriod), vtk, em.Progress(endIter=steps, realPeriod=20)]
+                     em.callEvery(watch, iterPeriod=period), vtk, em.Progress(endIter=steps, realPeriod=20)]
+        if bodies:  # the hammer moved along Eq 35 before the step, YADE's integrator after it
+            O.engines = ([ForceResetter(), em.callEvery(HammerDriver(o, load)), mpm, crack, contact,
+                          NewtonIntegrator(damping=0)] + list(O.engines)[2:])
         if every:
             O.engines = [em.Checkpoint(directory=os.path.join(out, "checkpoints"), iterPeriod=every)] + list(O.engines)
     X0 = mpm.referencePositions
@@ -245,6 +379,10 @@ def main(argv):
     summary = analyse(o, X0, crack.core.events(), kappa)
     cs = crack.summary()
     curve = np.array(watch.curve)
+    if bodies:  # the contact's force comes in steps (each first touch is an impulse): 10 us means
+        raw = curve
+        curve = curve.copy()
+        curve[:, 1:] = windowMean(curve[:, 0], curve[:, 1:], LOAD_WINDOW)
     t = mpm.solver.time
     u = rampDisplacement(t, o["v0_m_s"], o["rampTime_us"] * 1e-6)  # imposed load-point displacement
     for site in ("notch", "midspan"):  # the load when each site's crack started (issue 15 item 4)
@@ -253,6 +391,19 @@ def main(argv):
         summary[f"{site}_initiation_load_N"] = P
         # Nominal bending stress at the bottom of the midspan, 3 P L / (2 t D^2), t = thickness h.
         summary[f"{site}_initiation_midspan_stress_Pa"] = 3 * P * L / (2 * h * D * D) if P is not None else None
+        if bodies:  # the supports' force then (10 us mean)
+            summary[f"{site}_initiation_supports_N"] = (float(np.interp(ti * 1e-6, curve[:, 0], curve[:, 2]))
+                                                        if ti is not None else None)
+    # negative: the supports pulled (loading=bodies: the smallest in any step)
+    summary["support_sum_min_reaction_N"] = float((raw if bodies else curve)[:, 2].min())
+    if bodies:
+        summary.update(supportSummary(raw, curve, summary["initiation_time_us"]), loading="bodies")
+    if bodies:
+        summary.update(peak_load_raw_N=float(raw[:, 1].max()), hammer_min_force_N=float(raw[:, 1].min()),
+                       load_window_us=1e6 * LOAD_WINDOW)
+    header = "t_us,load_N,supports_N" + (",left_support_N,right_support_N" if bodies else "")
+    np.savetxt(os.path.join(out, "load.csv"), np.column_stack([1e6 * curve[:, 0], curve[:, 1:]]), delimiter=",",
+               header=header, comments="", fmt="%.9g")
     summary.update(end_time_us=1e6 * t, load_point_displacement_mm=1e3 * u, peak_load_N=float(curve[:, 1].max()),
                    thickness_m=h, dissipated_energy_J=cs["dissipated_energy_J"], eroded_count=cs["eroded_count"],
                    particles=n, steps=steps, wall_time_s=wall, particle_steps_per_s=n * steps / wall, dt_s=O.dt,

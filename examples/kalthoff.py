@@ -30,6 +30,27 @@ Modelling choices (parameters in brackets):
 - The impact is a velocity condition on the x component of the grid nodes nearest to the
   points of the left column (x < h/2) below the notch (y < notch - h/2), found anew each step
   as the points move (the paper's "monitoring the positions of boundary particles").
+- [projectile = condition] Instead of the velocity condition, projectile=body strikes the
+  left edge below the notch with a YADE rigid body (a box, `eigenmpm.BodyContact`,
+  frictionless: the condition too prescribes x only), which YADE's NewtonIntegrator moves with
+  the contact force; the plate can leave it (contact, not a bilateral condition). The box is
+  projectileLength_mm (50 mm) long, reaches from the symmetry plane up to h/8 below the notch
+  line (the experiment's projectile, 50 mm across, spans the 50 mm between the two notches), is
+  one metre deep like the plane-strain model, moves in x only (blockedDOFs 'yzXYZ': the roller
+  at y = 0 acts on grid nodes, not on it) and starts touching the plate's left edge at
+  projectileSpeed_m_s. A YADE body is rigid, so the interface starts at the body's speed, not at
+  half of it as between the experiment's steel projectile and its steel plate (equal
+  impedances: the paper's 16.5 m/s is half the projectile's 33 m/s). Hence the default body
+  (projectileMass_kg = 0): kinematic (not dynamic, infinite mass) at 16.5 m/s, the paper's
+  loading made unilateral. The experiment's projectile (steel, 50 mm across, 50 mm long as the
+  experiment is usually quoted: 0.785 kg) per plate thickness (19 mm) is 41.34 kg per metre,
+  20.67 kg/m in the half model: projectileMass_kg=20.67 projectileSpeed_m_s=33 is that
+  projectile taken rigid (its face starts at twice the interface speed), and
+  projectileMass_kg=41.34 at 16.5 m/s the same momentum at the interface speed. Measured at
+  h = 1 mm: the kinematic body cracks the plate like the condition; the rigid projectile leaves
+  the plate at about 37 us and the crack arrests; the same momentum at 16.5 m/s starts no crack
+  by 110 us. The condition gives the half plate about twice the projectile's momentum by 110 us
+  (doc/contact.md, "The paper's benchmarks with YADE bodies").
 - The symmetry plane y = 0 is fixed in y on the grid nodes of the bottom row (roller).
 - The run ends at endTime_us or stopAfter_us (2 us) after the crack reaches the boundary,
   whichever comes first (stopAfter_us=-1 runs to endTime_us).
@@ -70,8 +91,15 @@ slitLength_mm, stopAfter_us, initLength_mm, tipWindow_us, vtkPeriod_us, E, nu, r
 tension/compression split of the strain energy: spectral, the paper's and the default; volumetric;
 none; see doc/fracture.md), transfer (the particle-grid transfer of MpmEngine: FLIP, the paper's
 and the default, or APIC), stressUpdate (smallStrain, the paper's and the default, or
-corotational; doc/stability.md) and crackContact (0, the paper's and the default: the notch's
-faces pass through each other; 1: they touch, doc/contact.md). Writes
+corotational; doc/stability.md), crackContact (0, the paper's and the default: the notch's
+faces pass through each other; 1: they touch, doc/contact.md), projectile (condition, the
+paper's and the default: the velocity condition v0_m_s with the ramp rampTime_us; body: a YADE
+rigid body, see above), projectileSpeed_m_s, projectileMass_kg (kg per metre of thickness of the
+half model; 0, the default, or inf: kinematic) and projectileLength_mm (projectile=body only; v0_m_s and rampTime_us then unused).
+With projectile=body the summary adds the projectile's speed at the start, at initiation and
+at the end, its peak force and the impulse it gave the plate (per metre of thickness), the
+momentum it lost, and when it lost contact (projectile_*), and the VTK series has the plate's
+points only. Writes
 DIR/summary.json (initiation_time_us, crack_angle_initial_deg, crack_angle_overall_deg,
 crack_angle_fit_deg, boundary_time_us, max_tip_speed_m_s, dissipated_energy_J, transfer,
 stress_update, crack_contact, particles,
@@ -98,7 +126,8 @@ import sys
 import time
 
 import numpy as np
-from yade import O, pack, plot
+from yade import O, pack, plot, utils
+from yade.wrapper import ForceResetter, FrictMat, NewtonIntegrator
 
 import eigenmpm as em
 from eigenmpm import plots
@@ -108,8 +137,10 @@ from eigenmpm.fracture import linked
 DEFAULTS = dict(h_mm=0.5, kappaOverH=1.15, alpha=2.0, endTime_us=110.0, dt_us=0.01, v0_m_s=16.5,
                 rampTime_us=1.0, slitWidth_mm=1.0, slitLength_mm=40.0, stopAfter_us=2.0, initLength_mm=10.0,
                 tipWindow_us=2.0, vtkPeriod_us=10.0, E=190e9, nu=0.3, rho=8000.0, Gc=22130.0,
-                split="spectral", transfer="FLIP", stressUpdate="smallStrain", crackContact=False)
+                split="spectral", transfer="FLIP", stressUpdate="smallStrain", crackContact=False,
+                projectile="condition", projectileSpeed_m_s=16.5, projectileMass_kg=0.0, projectileLength_mm=50.0)
 QUICK = dict(h_mm=1.0, dt_us=0.12)
+PROJECTILES = ("condition", "body")
 RAYLEIGH = 2803.0
 SIZE, NOTCH_LEN = 0.1, 0.05
 
@@ -138,13 +169,86 @@ def build(o):
     mpm.fill(plate, steel)
     mpm.crack([(-h, yn, 0), (NOTCH_LEN, yn, 0)])
     mpm.fix(region=pack.inAlignedBox((-1, -1, -1), (1, 0, 1)), components="y", label="symmetry")
-    impact = mpm.velocityBC(points=pack.inAlignedBox((-1, -1, -1), (0.5 * h, yn - 0.5 * h, 1)),
-                            components="x", velocity=(o["v0_m_s"], 0, 0), rampTime=o["rampTime_us"] * 1e-6,
-                            label="impact")
+    if o["projectile"] == "condition":
+        impact = mpm.velocityBC(points=pack.inAlignedBox((-1, -1, -1), (0.5 * h, yn - 0.5 * h, 1)),
+                                components="x", velocity=(o["v0_m_s"], 0, 0), rampTime=o["rampTime_us"] * 1e-6,
+                                label="impact")
+    else:
+        impact = projectileBody(o, h, yn)
     crack = em.EigenErosion(engine=mpm, Gc=o["Gc"], alpha=o["alpha"], kappaOverH=o["kappaOverH"],
                             origin=(NOTCH_LEN, yn, 0), tipWindow=o["tipWindow_us"] * 1e-6,
                             iterPeriod=max(1, int(round(0.5 / o["dt_us"]))))
     return mpm, crack, impact
+
+
+def projectileBody(o, h, yn):
+    """The projectile as a YADE box (projectile=body): projectileLength_mm long in x, from the
+    symmetry plane y = 0 up to an eighth of a cell below the notch line (so that the points of
+    the block above the notch, h/4 above the line, are out of its reach), its front face on the
+    plate's left edge x = 0 (the points of the left column lie h/4 from it: they touch it from
+    its first move). One metre deep in z like the plane-strain model; only x is free
+    (blockedDOFs 'yzXYZ'), so the roller at y = 0 does not touch it. Mass projectileMass_kg
+    (per metre of thickness, the half model's); 0 (the default) or inf: a kinematic body (not
+    dynamic, infinite mass) moving at projectileSpeed_m_s whatever the plate does. Returns its
+    id."""
+    top = yn - h / 8
+    lp = o["projectileLength_mm"] * 1e-3
+    steel = O.materials.append(FrictMat(density=o["rho"], young=o["E"], poisson=o["nu"], frictionAngle=0,
+                                        label="projectile"))
+    m = o["projectileMass_kg"]
+    b = utils.box((-0.5 * lp, 0.5 * top, 0), (0.5 * lp, 0.5 * top, 0.5), material=steel, fixed=not dynamicMass(m))
+    bid = O.bodies.append(b)
+    if dynamicMass(m):
+        b.state.mass = m
+        b.state.blockedDOFs = "yzXYZ"
+    b.state.vel = (o["projectileSpeed_m_s"], 0, 0)
+    return bid
+
+
+def dynamicMass(m):
+    """Whether projectileMass_kg = m makes a dynamic projectile (0 or inf: kinematic)."""
+    return 0 < m < math.inf
+
+
+class ProjectileWatch:
+    """Records the projectile (projectile=body; a callEvery every step, after the
+    NewtonIntegrator): rows of time, its x velocity, the x force of the points on it in this
+    step, the points in contact. A class at the top level so that a checkpoint saves it with its
+    record."""
+
+    def __init__(self, mpm, contact, body):
+        self.mpm, self.contact, self.body = mpm, contact, body
+        self.rows = []
+
+    def __call__(self):
+        b = O.bodies[self.body]
+        self.rows.append((self.mpm.solver.time, float(b.state.vel[0]), float(self.contact.force(self.body)[0]),
+                          self.contact.pointsInContact()))
+
+
+def projectileSummary(o, watch, initiation_us):
+    """The projectile's record in summary keys: speed at the start, at crack initiation and at the
+    end, peak force, the impulse given to the plate (the force's integral) and the momentum the
+    projectile lost (mass x speed change; equal for a free body), when it lost contact."""
+    r = np.array(watch.rows) if watch.rows else np.zeros((0, 4))
+    m = o["projectileMass_kg"]
+    t, v, f, n = (r[:, k] for k in range(4))
+    impulse = float(np.sum(f)) * O.dt  # one row per step
+    touched = np.nonzero(n > 0)[0]
+    left = None
+    if len(touched):
+        after = np.nonzero((n == 0) & (np.arange(len(n)) > touched[0]))[0]
+        left = 1e6 * float(t[after[0]]) if len(after) else None
+    vInit = float(np.interp(initiation_us * 1e-6, t, v)) if initiation_us is not None and len(t) else None
+    return dict(projectile=o["projectile"], projectile_mass_kg_per_m=m if dynamicMass(m) else None,
+                projectile_speed_start_m_s=o["projectileSpeed_m_s"],
+                projectile_speed_at_initiation_m_s=vInit, projectile_speed_end_m_s=float(v[-1]) if len(v) else None,
+                projectile_peak_force_N_per_m=float(-f.min()) if len(f) else 0.0,
+                projectile_max_pull_N_per_m=float(f.max()) if len(f) else 0.0,  # > 0 would be a pull
+                projectile_impulse_N_s_per_m=-impulse,
+                projectile_momentum_lost_N_s_per_m=m * (o["projectileSpeed_m_s"] - float(v[-1]))
+                if dynamicMass(m) and len(v) else None,
+                projectile_contact_end_us=left)
 
 
 def crackPoints(X0, events, tip, radius):
@@ -254,10 +358,22 @@ def main(argv):
     O.reset()
     plot.reset()
     steps = int(round(o["endTime_us"] / o["dt_us"]))
+    if o["projectile"] not in PROJECTILES:
+        raise SystemExit(f"kalthoff: projectile = {o['projectile']!r} is invalid; allowed: {', '.join(PROJECTILES)}")
+    body = o["projectile"] == "body"
+    if body and not o["projectileMass_kg"] >= 0:
+        raise SystemExit(f"kalthoff: projectileMass_kg = {o['projectileMass_kg']!r} is invalid; allowed: >= 0 "
+                         "(kg per metre of thickness; 0 or inf: a kinematic projectile)")
+    watch = None
     if resume:  # the scene, its engines and the edge watch as checkpointed (doc/restart.md)
         em.checkpoint.resume(resume)
         mpm = em.findEngine("plate")
-        (crack,) = mpm.physics.values()
+        (crack,) = [e for e in mpm.physics.values() if isinstance(e, em.EigenErosion)]
+        found = [e.function for e in O.engines if isinstance(getattr(e, "function", None), ProjectileWatch)]
+        if body != bool(found):
+            raise SystemExit(f"kalthoff: --resume {resume}: the checkpoint was saved with projectile="
+                             f"{'body' if found else 'condition'}; give the same parameters (projectile={o['projectile']})")
+        watch = found[0] if found else None
     else:
         mpm, crack, impact = build(o)
         O.dt = o["dt_us"] * 1e-6
@@ -265,6 +381,11 @@ def main(argv):
                              iterPeriod=max(1, int(round(o["vtkPeriod_us"] / o["dt_us"]))))
         engines = [mpm, crack, em.PlotRecorder(iterPeriod=crack.iterPeriod), vtk,
                    em.Progress(endIter=steps, realPeriod=20)]
+        if body:  # YADE moves the projectile; the contact's forces reach it through O.forces
+            contact = em.BodyContact(engine=mpm, bodies=[impact], label="contact")
+            watch = ProjectileWatch(mpm, contact, impact)
+            engines = ([ForceResetter()] + engines[:2] + [contact, NewtonIntegrator(damping=0)] + engines[2:]
+                       + [em.callEvery(watch, iterPeriod=1)])
         if o["stopAfter_us"] >= 0:
             engines.append(em.callEvery(EdgeWatch(o, mpm, crack), iterPeriod=crack.iterPeriod))
         if every:
@@ -291,6 +412,8 @@ def main(argv):
                    elastic_energy_J=mpm.elasticEnergy(), kinetic_energy_J=mpm.kineticEnergy(),
                    transfer=mpm.transfer, stress_update=mpm.stressUpdate, crack_contact=bool(mpm.crackContact),
                    parameters=o, quick=quick)
+    if watch is not None:
+        summary.update(projectileSummary(o, watch, s["initiation_time_us"]))
     summary.update(end.summary())
     with open(os.path.join(out, "summary.json"), "w") as f:
         json.dump(summary, f, indent=2)
