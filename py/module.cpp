@@ -36,12 +36,22 @@ Eigen::Vector3d toVec3(const bp::object& o, const char* what)
 
 bp::tuple fromVec3(const Eigen::Vector3d& v) { return bp::make_tuple(v[0], v[1], v[2]); }
 
-/// A YADE Vector3 (converted through YADE's own registered converter, no Python call per
-/// component) or, failing that, any 2- or 3-sequence.
+/// A YADE Vector3 (read in place: it wraps an Eigen::Vector3d, registered by YADE) or, failing
+/// that, any 2- or 3-sequence.
 Eigen::Vector3d fastVec3(const bp::object& o, const char* what)
 {
-    bp::extract<Eigen::Vector3d> direct(o);
-    return direct.check() ? direct() : toVec3(o, what);
+    bp::extract<const Eigen::Vector3d&> inPlace(o);
+    if (inPlace.check()) return inPlace();
+    bp::extract<Eigen::Vector3d> converted(o);
+    return converted.check() ? converted() : toVec3(o, what);
+}
+
+/// f(arg), one positional argument, without building an argument tuple.
+bp::object callOne(const bp::object& f, const bp::object& arg)
+{
+    PyObject* r = PyObject_CallOneArg(f.ptr(), arg.ptr());
+    if (!r) bp::throw_error_already_set();
+    return bp::object(bp::handle<>(r));
 }
 
 /// Attribute `key` (an interned name, made once by the caller) of o.
@@ -199,8 +209,10 @@ template <int D> struct BindContact {
         bp::list added, rest;
         const long n = bp::len(ids);
         for (long k = 0; k < n; ++k) {
-            const bp::object id = ids[k];
-            const bp::object b = bodies[id];
+            const bp::object id(bp::handle<>(PySequence_GetItem(ids.ptr(), k)));
+            PyObject* item = PyObject_GetItem(bodies.ptr(), id.ptr());
+            if (!item) bp::throw_error_already_set();
+            const bp::object b{bp::handle<>(item)};
             if (b.is_none()) continue;
             const bp::object st = attr(b, kState);
             const double m = bp::extract<double>(attr(st, kMass));
@@ -214,8 +226,9 @@ template <int D> struct BindContact {
             RigidBody r;
             r.id = bp::extract<int>(id);
             r.centre = fastVec3(attr(st, kPos), "position");
-            r.velocity = fastVec3(attr(st, kVel), "velocity") + (fastVec3(forceOf(id), "force") / m + g) * dt;
-            r.angularVelocity = fastVec3(attr(st, kAngVel), "angular velocity") + fastVec3(torqueOf(id), "torque") * (dt * i);
+            r.velocity = fastVec3(attr(st, kVel), "velocity") + (fastVec3(callOne(forceOf, id), "force") / m + g) * dt;
+            r.angularVelocity = fastVec3(attr(st, kAngVel), "angular velocity") +
+                                fastVec3(callOne(torqueOf, id), "torque") * (dt * i);
             r.invMass = Eigen::Vector3d::Constant(1.0 / m);
             r.invInertia = Eigen::Vector3d::Constant(i).asDiagonal();
             c.bodies.push_back(r);
