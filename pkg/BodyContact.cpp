@@ -166,12 +166,19 @@ template <int D> void BodyContact<D>::binPoints(const GridState<D>& s)
     }
     cellStart_.assign(cells + 1, 0);
     const int np = static_cast<int>(s.points.size());
-    cellOf_.assign(np, -1);
+    // First the points inside the box (no branch per direction, so the loop stays tight), then
+    // their cells, counted and placed in point order.
+    candidates_.clear();
     for (int p = 0; p < np; ++p) {
         const auto& x = s.points.x[p];
-        bool out = false;
-        for (int d = 0; d < D; ++d) out = out || x[d] < xlo[d] || x[d] > xhi[d];
-        if (out) continue;
+        bool in = true;
+        for (int d = 0; d < D; ++d) in &= (x[d] >= xlo[d]) & (x[d] <= xhi[d]);
+        if (in) candidates_.push_back(p);
+    }
+    cellOf_.clear();
+    std::size_t kept = 0;
+    for (const int p : candidates_) {
+        const auto& x = s.points.x[p];
         int index = 0, stride = 1;
         for (int d = 0; d < D; ++d) {
             const int i = std::clamp(static_cast<int>(std::floor((x[d] - g.origin[d]) * g.invh)), 0, nc[d] - 1);
@@ -183,14 +190,14 @@ template <int D> void BodyContact<D>::binPoints(const GridState<D>& s)
             stride *= width[d];
         }
         if (index < 0) continue;
-        cellOf_[p] = index;
+        candidates_[kept++] = p;
+        cellOf_.push_back(index);
         ++cellStart_[index + 1];
     }
     for (int c = 0; c < cells; ++c) cellStart_[c + 1] += cellStart_[c];
     cellPoints_.resize(cellStart_[cells]);
     fill_.assign(cellStart_.begin(), cellStart_.end() - 1);
-    for (int p = 0; p < np; ++p)
-        if (cellOf_[p] >= 0) cellPoints_[fill_[cellOf_[p]]++] = p;
+    for (std::size_t k = 0; k < kept; ++k) cellPoints_[fill_[cellOf_[k]]++] = candidates_[k];
 }
 
 template <int D> void BodyContact<D>::afterForces(GridState<D>& s)

@@ -84,7 +84,7 @@ private:
     std::vector<Touch> touches_;
     std::vector<Range> ranges_;
     int binLo_[3] = {0, 0, 0}, binHi_[3] = {0, 0, 0};  ///< the binned cells: the union of the ranges
-    std::vector<int> cellStart_, cellPoints_, cellOf_, fill_;
+    std::vector<int> cellStart_, cellPoints_, cellOf_, fill_, candidates_;
     bool cellRange(const GridState<D>& s, const RigidShape& shape, double reach, int lo[3], int hi[3]) const;
     void binPoints(const GridState<D>& s);
 };
