@@ -6,7 +6,7 @@ BUILD := build
 JOBS ?= $(shell nproc)
 DEBS := yade cmake make g++ libeigen3-dev libboost-python1.74-dev libboost-numpy1.74-dev \
         python3-dev python3.11-dev libgtest-dev python3-pytest python3-numpy python3-matplotlib \
-        python3-vtk9 python3-scipy
+        python3-vtk9 python3-scipy openmpi-bin libopenmpi-dev python3-mpi4py
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 export PYTHONPATH := $(CURDIR)/$(BUILD)/python$(if $(PYTHONPATH),:$(PYTHONPATH))
 

@@ -15,9 +15,9 @@ namespace emp {
 
 template <int D> class CellList {
 public:
-    /// Bins the points `ids` (positions x[id]) in cells of size `cell` covering [lo, hi].
-    void build(const std::vector<Vec<D>>& x, const std::vector<int>& ids, double cell, const Vec<D>& lo,
-               const Vec<D>& hi)
+    /// Bins the points `ids` (positions x[id]; x any array of Vec<D>) in cells of size `cell`
+    /// covering [lo, hi].
+    template <class X> void build(const X& x, const std::vector<int>& ids, double cell, const Vec<D>& lo, const Vec<D>& hi)
     {
         cell_ = cell;
         lo_ = lo;
@@ -39,7 +39,7 @@ public:
     }
 
     /// Calls f(q) for every binned q with |x_q - p| <= r (r <= cell size), cells in index order.
-    template <class F> void forEachWithin(const std::vector<Vec<D>>& x, const Vec<D>& p, double r, F&& f) const
+    template <class X, class F> void forEachWithin(const X& x, const Vec<D>& p, double r, F&& f) const
     {
         std::array<int, D> c;
         for (int d = 0; d < D; ++d) c[d] = coord(p[d], d);
@@ -70,7 +70,7 @@ private:
         }
         return c;
     }
-    template <class F> void visit(const std::vector<Vec<D>>& x, const Vec<D>& p, double r2, long c, F& f) const
+    template <class X, class F> void visit(const X& x, const Vec<D>& p, double r2, long c, F& f) const
     {
         for (int k = start_[c]; k < start_[c + 1]; ++k) {
             const int q = sorted_[k];

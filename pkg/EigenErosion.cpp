@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <utility>
 
 #include "Errors.hpp"
 #include "Laws.hpp"
@@ -15,69 +17,121 @@ template <int D> EigenErosion<D>::EigenErosion(const ErosionSettings& s) : setti
     require(std::isfinite(s.kappa) && s.kappa > 0, "kappa (neighbourhood radius, m)", s.kappa, "kappa > 0");
 }
 
-template <int D>
-void EigenErosion<D>::buildList(const MaterialPoints<D>& P, const std::vector<int>& around, double margin)
+namespace {
+
+/// The points eigenerosion sees: this rank's (q < n) and, in a distributed run, the
+/// neighbours' ghost points (q >= n). Also the positions array of the cell list.
+template <int D> struct Neighbourhood {
+    const MaterialPoints<D>& P;
+    const GhostPoints<D>* G;
+    int n;
+    int total() const { return n + (G ? static_cast<int>(G->size()) : 0); }
+    const Vec<D>& operator[](int q) const { return q < n ? P.x[q] : G->x[q - n]; }
+    double mass(int q) const { return q < n ? P.mass[q] : G->mass[q - n]; }
+    double history(int q) const { return q < n ? P.history[q] : G->history[q - n]; }
+    double damage(int q) const { return q < n ? P.damage[q] : G->damage[q - n]; }
+    /// q in the single-process order: by globalId in a distributed run, else by index.
+    std::int64_t order(int q) const { return !G ? q : q < n ? P.globalId[q] : G->id[q - n]; }
+};
+
+template <int D> Neighbourhood<D> local(const MaterialPoints<D>& P)
 {
-    // Bin only the intact points in the box around `around`, widened by `margin`.
-    Vec<D> lo = P.x[around[0]], hi = P.x[around[0]];
-    for (int p : around) {
+    return {P, nullptr, static_cast<int>(P.size())};
+}
+
+template <int D> void box(const MaterialPoints<D>& P, const std::vector<int>& ids, Vec<D>& lo, Vec<D>& hi)
+{
+    lo = hi = P.x[ids[0]];
+    for (int p : ids) {
         lo = lo.cwiseMin(P.x[p]);
         hi = hi.cwiseMax(P.x[p]);
     }
+}
+
+}  // namespace
+
+template <int D> template <class V> void EigenErosion<D>::buildList(const V& view, Vec<D> lo, Vec<D> hi)
+{
+    // Bin only the intact points in the box [lo, hi] widened by 2 kappa, in the single-process
+    // order (a cell visits its points in that order, so every sum runs in it).
+    const double margin = 2.0 * settings_.kappa;
     lo.array() -= margin;
     hi.array() += margin;
     binned_.clear();
-    const int n = static_cast<int>(P.size());
+    const int n = view.total();
     for (int q = 0; q < n; ++q)
-        if (P.damage[q] > 0 && (P.x[q].array() >= lo.array()).all() && (P.x[q].array() <= hi.array()).all())
+        if (view.damage(q) > 0 && (view[q].array() >= lo.array()).all() && (view[q].array() <= hi.array()).all())
             binned_.push_back(q);
-    cells_.build(P.x, binned_, settings_.kappa, lo, hi);
+    if (view.G) std::inplace_merge(binned_.begin(), std::lower_bound(binned_.begin(), binned_.end(), view.n), binned_.end(),
+                                   [&](int a, int b) { return view.order(a) < view.order(b); });
+    cells_.build(view, binned_, settings_.kappa, lo, hi);
 }
 
-template <int D> double EigenErosion<D>::rate(const MaterialPoints<D>& P, int p) const
+template <int D> template <class V> double EigenErosion<D>::rate(const V& view, int p) const
 {
     double mh = 0, m = 0;
-    cells_.forEachWithin(P.x, P.x[p], settings_.kappa, [&](int q) {
-        mh += P.mass[q] * P.history[q];
-        m += P.mass[q];
+    cells_.forEachWithin(view, view[p], settings_.kappa, [&](int q) {
+        mh += view.mass(q) * view.history(q);
+        m += view.mass(q);
     });
     return m > 0 ? settings_.alpha * settings_.kappa * mh / m : 0.0;  // Eq 23
 }
 
 template <int D>
 int EigenErosion<D>::apply(MaterialPoints<D>& P, const std::vector<ElasticMaterial>& materials,
-                           std::int64_t step, double time, int nThreads)
+                           std::int64_t step, double time, int nThreads, const GhostPoints<D>* ghosts,
+                           Transport* transport)
 {
     const ErosionSettings& s = settings_;
     const double hSource = s.Gc / (s.alpha * s.kappa);  // alpha kappa H >= Gc  <=>  H >= hSource
     const int n = static_cast<int>(P.size());
+    const Neighbourhood<D> view{P, ghosts, n};
     sources_.clear();
     eroding_.clear();
     before_.clear();
     for (int p = 0; p < n; ++p)
         if (P.history[p] >= hSource && P.damage[p] > 0) sources_.push_back(p);
-    searched_ = !sources_.empty();
+    for (int q = n; q < view.total(); ++q)
+        if (view.history(q) >= hSource && view.damage(q) > 0) sources_.push_back(q);
+    // The box of the sources (of all ranks in a distributed run: the cells are then the same).
+    Vec<D> lo = Vec<D>::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+    for (int q : sources_) {
+        lo = lo.cwiseMin(view[q]);
+        hi = hi.cwiseMax(view[q]);
+    }
+    if (transport) {
+        double b[2 * D];
+        for (int d = 0; d < D; ++d) {
+            b[d] = -lo[d];
+            b[D + d] = hi[d];
+        }
+        transport->max(b, 2 * D);
+        for (int d = 0; d < D; ++d) {
+            lo[d] = -b[d];
+            hi[d] = b[D + d];
+        }
+    }
+    searched_ = lo[0] <= hi[0];
     candidates_.clear();
     if (!searched_) return 0;
-
-    // Candidates: intact points within kappa of a source (the only ones that can reach Gc).
-    buildList(P, sources_, 2.0 * s.kappa);
+    // Candidates: this rank's intact points within kappa of a source (the only ones that can
+    // reach Gc).
+    buildList(view, lo, hi);
     if (static_cast<int>(mark_.size()) != n) mark_.assign(n, 0);
     for (int src : sources_)
-        cells_.forEachWithin(P.x, P.x[src], s.kappa, [&](int q) {
-            if (!mark_[q]) {
+        cells_.forEachWithin(view, view[src], s.kappa, [&](int q) {
+            if (q < n && !mark_[q]) {
                 mark_[q] = 1;
                 candidates_.push_back(q);
             }
         });
     std::sort(candidates_.begin(), candidates_.end());
     for (int q : candidates_) mark_[q] = 0;
-
     // G_p (Eq 23) of every candidate, then erosion (Eq 24) of all qualifying points together.
     const int nc = static_cast<int>(candidates_.size());
     std::vector<char> erode(nc, 0);
 #pragma omp parallel for schedule(static) num_threads(nThreads)
-    for (int k = 0; k < nc; ++k) erode[k] = rate(P, candidates_[k]) >= s.Gc;
+    for (int k = 0; k < nc; ++k) erode[k] = rate(view, candidates_[k]) >= s.Gc;
     for (int k = 0; k < nc; ++k)
         if (erode[k]) eroding_.push_back(candidates_[k]);
     for (int p : eroding_) {
@@ -85,8 +139,34 @@ int EigenErosion<D>::apply(MaterialPoints<D>& P, const std::vector<ElasticMateri
         before_.push_back(P.stress[p]);
         P.damage[p] = 0.0;
         P.stress[p] = lawResponse<D>(P.strain[p], m).sigmaMinus;  // g(0) sigma+ + sigma-
-        dissipated_ += s.Gc / (2.0 * s.kappa) * P.volume[p];                    // Eq 33
-        events_.push_back({p, step, time});
+    }
+    // The events and the dissipated energy (Eq 33), in the single-process order.
+    const double perVolume = s.Gc / (2.0 * s.kappa);
+    if (!transport) {
+        for (int p : eroding_) {
+            dissipated_ += perVolume * P.volume[p];
+            events_.push_back({p, step, time});
+        }
+        return static_cast<int>(eroding_.size());
+    }
+    Bytes mine;
+    for (int p : eroding_) {
+        mine.put(P.globalId[p]);
+        mine.put(P.volume[p]);
+    }
+    std::vector<std::pair<std::int32_t, double>> all;
+    for (auto& bytes : transport->allGather(mine.data)) {
+        Bytes b;
+        b.data = std::move(bytes);
+        while (!b.done()) {
+            const auto id = b.get<std::int32_t>();
+            all.emplace_back(id, b.get<double>());
+        }
+    }
+    std::sort(all.begin(), all.end());
+    for (const auto& [id, volume] : all) {
+        dissipated_ += perVolume * volume;
+        events_.push_back({id, step, time});
     }
     return static_cast<int>(eroding_.size());
 }
@@ -114,8 +194,11 @@ std::vector<double> EigenErosion<D>::energyReleaseRate(const MaterialPoints<D>& 
 {
     std::vector<double> out;
     if (ids.empty()) return out;
-    buildList(P, ids, 2.0 * settings_.kappa);
-    for (int p : ids) out.push_back(rate(P, p));
+    Vec<D> lo, hi;
+    box(P, ids, lo, hi);
+    const auto view = local(P);
+    buildList(view, lo, hi);
+    for (int p : ids) out.push_back(rate(view, p));
     return out;
 }
 

@@ -12,6 +12,7 @@
 
 #include "Archive.hpp"
 #include "CellList.hpp"
+#include "Distribution.hpp"
 #include "ElasticMaterial.hpp"
 #include "MaterialPoints.hpp"
 
@@ -36,8 +37,12 @@ public:
     explicit EigenErosion(const ErosionSettings& s);
 
     /// Evaluates Eq 23 where needed and erodes the points with G_p >= Gc. Returns how many eroded.
+    /// A distributed run (Distribution.hpp) gives the neighbours' points near this rank
+    /// (`ghosts`) and its transport: every rank must call it; the eroded set, the events and the
+    /// dissipated energy are then those of the single-process run, on every rank (events name
+    /// the points by globalId).
     int apply(MaterialPoints<D>& P, const std::vector<ElasticMaterial>& materials, std::int64_t step,
-              double time, int nThreads);
+              double time, int nThreads, const GhostPoints<D>* ghosts = nullptr, Transport* transport = nullptr);
 
     /// G_p of every listed point by brute force over all intact points (for tests and
     /// diagnostics; O(N^2)).
@@ -71,8 +76,8 @@ public:
     }
 
 private:
-    void buildList(const MaterialPoints<D>& P, const std::vector<int>& around, double margin);
-    double rate(const MaterialPoints<D>& P, int p) const;
+    template <class V> void buildList(const V& view, Vec<D> lo, Vec<D> hi);
+    template <class V> double rate(const V& view, int p) const;
 
     ErosionSettings settings_;
     double dissipated_ = 0;

@@ -14,6 +14,7 @@
 // a class deriving from GridCondition<D>, registered with Solver::addCondition; the step does
 // not change. A condition runs once per step, not per point, so a virtual call is cheap here.
 #pragma once
+#include <climits>
 #include <functional>
 
 #include "Grid.hpp"
@@ -42,6 +43,9 @@ template <int D> struct GridState {
     double time;                     ///< t^{n-1/2} after the nodal velocity, t^{n+1/2} after forces
     double dt;
     const PointSupport<D>* support = nullptr;  ///< the points' supports (set after the forces)
+    /// The nodes [ownedLo, ownedHi) this process owns: a sum over nodes (a reaction) counts only
+    /// those, so that a distributed run (Distribution.hpp) counts every node once.
+    int ownedLo = 0, ownedHi = INT_MAX;
 };
 
 template <int D> class GridCondition {

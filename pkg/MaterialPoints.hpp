@@ -28,7 +28,10 @@ template <int D> struct MaterialPoints {
     /// The body each point belongs to (0-63): bodies in one grid touch without bonding
     /// (Solver::setPointBodies). Empty unless `bodies` is on: one body pays nothing.
     std::vector<std::int32_t> body;
-    bool affine = false, deformation = false, bodies = false;  ///< which optional arrays the points carry
+    /// The point's index in the single-process scene (Distribution.hpp): a rank's points stay
+    /// sorted by it. Empty unless `distributed` is on.
+    std::vector<std::int32_t> globalId;
+    bool affine = false, deformation = false, bodies = false, distributed = false;  ///< which optional arrays the points carry
 
     std::size_t size() const { return x.size(); }
 
@@ -50,16 +53,20 @@ template <int D> struct MaterialPoints {
         f("affineVelocity", affineVelocity);
         f("deformationGradient", deformationGradient);
         f("body", body);
+        f("globalId", globalId);
     }
 
-    /// The length an array must have: every point's, or 0 for an optional one that is off.
-    std::size_t expectedLength(const std::string& name) const
+    /// Whether the points carry the array `name`: every non-optional one, an optional one when on.
+    bool carries(const std::string& name) const
     {
-        if (name == "affineVelocity" && !affine) return 0;
-        if (name == "deformationGradient" && !deformation) return 0;
-        if (name == "body" && !bodies) return 0;
-        return size();
+        if (name == "affineVelocity") return affine;
+        if (name == "deformationGradient") return deformation;
+        if (name == "body") return bodies;
+        if (name == "globalId") return distributed;
+        return true;
     }
+    /// The length an array must have: every point's, or 0 for an optional one that is off.
+    std::size_t expectedLength(const std::string& name) const { return carries(name) ? size() : 0; }
 
     void add(const Vec<D>& pos, const Vec<D>& vel, double m, double vol, int mat)
     {

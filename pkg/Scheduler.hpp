@@ -8,6 +8,7 @@
 #pragma once
 #include <algorithm>
 #include <climits>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -22,6 +23,19 @@ public:
 
     /// Bins the points at x by strip, for the kernel K. Returns the id of the first point whose
     /// support leaves the grid (binned nowhere), or -1 when all are on it.
+    /// The number of strips of a grid, for the kernel K.
+    template <class K> static int numStrips(const Grid<D>& g) { return (g.n[D - 1] - K::S) / stripWidth + 1; }
+    /// The strip of a point at x, for the kernel K, or -1 when its support leaves the grid.
+    template <class K> static int stripOf(const Vec<D>& x, const Grid<D>& g)
+    {
+        int b = 0;
+        for (int d = 0; d < D; ++d) {
+            b = K::base((x[d] - g.origin[d]) * g.invh);
+            if (!(b >= 0 && b <= g.n[d] - K::S)) return -1;
+        }
+        return b / stripWidth;
+    }
+
     template <class K> int bin(const std::vector<Vec<D>>& x, const Grid<D>& g, int nThreads)
     {
         static_assert(stripWidth >= K::S - 1, "strips of one colour would share nodes");
@@ -59,11 +73,13 @@ public:
 
     /// Calls f(slot) for every slot, where f may scatter to the nodes of its point's support:
     /// two colours of strips, each strip in slot order.
-    template <class F> void scatter(int nThreads, F&& f) const
+    /// `between`, when given, runs between the two colours (a distributed run's exchange,
+    /// Distribution.hpp).
+    template <class F> void scatter(int nThreads, F&& f, const std::function<void()>& between = {}) const
     {
         scatterStrips(nThreads, [&](int begin, int end) {
             for (int k = begin; k < end; ++k) f(k);
-        });
+        }, between);
     }
 
     /// scatter in runs: calls f(begin, end) for consecutive ranges of at most `run` slots of one
@@ -71,21 +87,22 @@ public:
     /// scatters: points are independent until they write, so their long chains of dependent
     /// arithmetic (the law's square roots and divisions) overlap in the processor instead of
     /// following each other; the order of the contributions to each node is that of scatter.
-    template <class F> void scatterRuns(int nThreads, int run, F&& f) const
+    template <class F> void scatterRuns(int nThreads, int run, F&& f, const std::function<void()>& between = {}) const
     {
         scatterStrips(nThreads, [&](int begin, int end) {
             for (int k = begin; k < end; k += run) f(k, std::min(k + run, end));
-        });
+        }, between);
     }
 
     /// The strips of scatter: calls f(begin, end) with the slot range of every strip, two colours
     /// of strips one after the other, the strips of a colour on the workers.
-    template <class F> void scatterStrips(int nThreads, F&& f) const
+    template <class F> void scatterStrips(int nThreads, F&& f, const std::function<void()>& between = {}) const
     {
         const int numStrips = static_cast<int>(stripStart_.size()) - 1;
         for (int colour = 0; colour < 2; ++colour) {
 #pragma omp parallel for schedule(dynamic, 1) num_threads(nThreads)
             for (int s = colour; s < numStrips; s += 2) f(stripStart_[s], stripStart_[s + 1]);
+            if (colour == 0 && between) between();
         }
     }
 
@@ -115,6 +132,12 @@ public:
     {
 #pragma omp parallel for schedule(static) num_threads(nThreads)
         for (int I = 0; I < n; ++I) f(I);
+    }
+    /// forEachNode over the nodes [lo, hi) only (a distributed run's planes).
+    template <class F> static void forEachNodeIn(int lo, int hi, int nThreads, F&& f)
+    {
+#pragma omp parallel for schedule(static) num_threads(nThreads)
+        for (int I = lo; I < hi; ++I) f(I);
     }
 
 private:

@@ -38,6 +38,7 @@ template <int D, class K> void Solver<D, K>::step(double dt, int nThreads)
 {
     nThreads = std::max(1, nThreads);
     checkTimeStep(dt);                     // dt <= h / (c + v_max)
+    distributePoints();                    //     a distributed run's points: partition, migration
     schedulePoints(nThreads);              // binning and colouring (Scheduler)
     markCrackedNodes();                    // phantom nodes for the cracks' position (3.3.1)
     markBodyNodes();                       //     or a field per body where bodies meet
@@ -50,6 +51,7 @@ template <int D, class K> void Solver<D, K>::step(double dt, int nThreads)
                                            // (5) internal and body force, Eqs 13-14
     erode(dt, nThreads);                   // (4) eigenerosion, Eqs 23-24, 33
     tractionForces();                      // (5) traction, Eq 28
+    if (dist_) dist_->applyRecords(recordsLeft_, recordsRight_, {grid_.force.data()->data(), D});
     applyConditionsAfterForces(dt);        //     conditions on the forces, reactions
     updateGrid(dt, nThreads);              // (5) nodal momentum, Eq 29
     accumulateExternalWork(dt);            //     work of tractions and gravity (diagnostics)
@@ -70,6 +72,81 @@ template <int D, class K> void Solver<D, K>::checkTimeStep(double dt)
           << "eigenmpm.criticalTimeStep() with a fraction <= 1";
         throw ParameterError(s.str());
     }
+}
+
+template <int D, class K> void Solver<D, K>::distributePoints()
+{
+    if (!dist_) return;
+    checkDistributable();  // (something may have been attached since distribute())
+    const auto stripOf = [&](const Vec<D>& x) { return Scheduler<D>::template stripOf<K>(x, grid_); };
+    if (!dist_->partitioned()) {
+        std::vector<int> strips(points_.size());
+        for (std::size_t p = 0; p < points_.size(); ++p) strips[p] = stripOf(points_.x[p]);
+        const int numStrips = Scheduler<D>::template numStrips<K>(grid_);
+        dist_->partition(points_, strips, numStrips, S, grid_.n[D - 1]);
+        if (erosion_) {
+            const double reach = erosion_->settings().kappa + 2 * grid_.h;
+            int thinnest = numStrips;
+            for (int r = 0; r < dist_->size(); ++r)
+                thinnest = std::min(thinnest, dist_->firstStrips()[r + 1] - dist_->firstStrips()[r]);
+            require(reach <= thinnest * Scheduler<D>::stripWidth * grid_.h, "number of ranks", dist_->size(),
+                    "one whose thinnest range of strips (" + std::to_string(thinnest) + " x " +
+                        std::to_string(Scheduler<D>::stripWidth) + " cells) holds kappa + 2 h (fewer ranks)");
+        }
+    } else {
+        dist_->migrate(points_, stripOf);
+    }
+    // The traction points on this rank, by their position in each condition's list.
+    tractionLocal_.assign(tractions_.size(), {});
+    for (std::size_t t = 0; t < tractions_.size(); ++t)
+        for (std::size_t k = 0; k < tractions_[t].points.size(); ++k) {
+            const int p = dist_->localIndex(points_, tractions_[t].points[k]);
+            if (p >= 0) tractionLocal_[t].emplace_back(p, static_cast<int>(k));
+        }
+    recordsLeft_.clear();
+    recordsRight_.clear();
+}
+
+template <int D, class K> template <class F> void Solver<D, K>::forEachWorkNode(int nThreads, F&& f)
+{
+    if (!dist_) {
+        Scheduler<D>::forEachNode(grid_.totalNodes(), nThreads, f);
+        return;
+    }
+    const int stride = grid_.stride[D - 1];
+    Scheduler<D>::forEachNodeIn(dist_->planeLo() * stride, dist_->planeHi() * stride, nThreads, f);
+}
+
+template <int D, class K> void Solver<D, K>::ownedNodes(int& lo, int& hi) const
+{
+    lo = 0;
+    hi = grid_.totalNodes();
+    if (!dist_) return;
+    lo = dist_->ownedLo() * grid_.stride[D - 1];
+    hi = dist_->ownedHi() * grid_.stride[D - 1];
+}
+
+template <int D, class K>
+void Solver<D, K>::addNodeForce(int I, const Vec<D>& f, std::int64_t key0, std::int64_t key1)
+{
+    const int side = dist_ ? dist_->sharedSide(I / grid_.stride[D - 1]) : 0;
+    if (side == 0) {
+        grid_.force[I] += f;
+        return;
+    }
+    NodeRecord<D> r{{key0, key1}, I, {}};
+    for (int d = 0; d < D; ++d) r.value[d] = f[d];
+    (side < 0 ? recordsLeft_ : recordsRight_).push_back(r);
+}
+
+template <int D, class K> template <class F> void Solver<D, K>::forEachTractionPoint(std::size_t t, F&& f) const
+{
+    if (!dist_) {
+        const auto& points = tractions_[t].points;
+        for (std::size_t k = 0; k < points.size(); ++k) f(points[k], static_cast<int>(k));
+        return;
+    }
+    for (const auto& [p, k] : tractionLocal_[t]) f(p, k);
 }
 
 template <int D, class K> void Solver<D, K>::schedulePoints(int nThreads)
@@ -126,7 +203,7 @@ template <int D, class K> void Solver<D, K>::markedBox()
 template <int D, class K> void Solver<D, K>::clearGrid(int nThreads)
 {
     auto& g = grid_;
-    Scheduler<D>::forEachNode(g.totalNodes(), nThreads, [&](int I) {
+    forEachWorkNode(nThreads, [&](int I) {
         g.mass[I] = 0;
         g.momentum[I].setZero();
         g.force[I].setZero();
@@ -168,10 +245,14 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
             }
         };
     };
+    const std::vector<NodeField> fields{{g.mass.data(), 1}, {g.momentum.data()->data(), D}};
+    std::function<void()> between;
+    if (dist_) between = [&] { dist_->afterFirstColour(g, fields); };
     if (settings_.transfer == Transfer::apic)
-        schedule_.scatter(nThreads, body(std::true_type{}));
+        schedule_.scatter(nThreads, body(std::true_type{}), between);
     else
-        schedule_.scatter(nThreads, body(std::false_type{}));
+        schedule_.scatter(nThreads, body(std::false_type{}), between);
+    if (dist_) dist_->finishScatter(g, fields);
 }
 
 template <int D, class K> void Solver<D, K>::nodalVelocity(int nThreads)
@@ -181,7 +262,7 @@ template <int D, class K> void Solver<D, K>::nodalVelocity(int nThreads)
     // motion would strain. The cut-off applies where a force is divided by the mass (invMass).
     auto& g = grid_;
     const double cut = massCutoffAbs_;
-    Scheduler<D>::forEachNode(g.totalNodes(), nThreads, [&](int I) {
+    forEachWorkNode(nThreads, [&](int I) {
         g.invMass[I] = g.mass[I] > cut && g.mass[I] > 0 ? 1.0 / g.mass[I] : 0.0;
         g.velocity[I] = g.mass[I] > 0 ? Vec<D>(g.momentum[I] / g.mass[I]) : Vec<D>::Zero();
     });
@@ -296,19 +377,23 @@ template <int D, class K> void Solver<D, K>::stressAndInternalForce(double dt, i
     constexpr int stressRun = 16;
     const Vec<D> gravity = settings_.gravity.head<D>();
     const auto& order = schedule_.order();
+    const std::vector<NodeField> fields{{grid_.force.data()->data(), D}};
+    std::function<void()> between;
+    if (dist_) between = [&] { dist_->afterFirstColour(grid_, fields); };
     const auto pass = [&](auto withGravity, auto corotational) {
         schedule_.scatterRuns(nThreads, stressRun, [&](int begin, int end) {
             for (int k = begin; k < end; ++k) updateStress<decltype(corotational)::value>(order[k], stencil_[k], dt);
             for (int k = begin; k < end; ++k)
                 scatterInternalForce<decltype(withGravity)::value, decltype(corotational)::value>(
                     order[k], stencil_[k], gravity);
-        });
+        }, between);
     };
     const bool corotational = settings_.stressUpdate == StressUpdate::corotational;
     if (gravity.isZero(0.0))
         corotational ? pass(std::false_type{}, std::true_type{}) : pass(std::false_type{}, std::false_type{});
     else
         corotational ? pass(std::true_type{}, std::true_type{}) : pass(std::true_type{}, std::false_type{});
+    if (dist_) dist_->finishScatter(grid_, fields);
 }
 
 template <int D, class K> typename Solver<D, K>::St Solver<D, K>::stencilOf(int p)
@@ -325,7 +410,11 @@ template <int D, class K> void Solver<D, K>::erode(double dt, int nThreads)
     // an eroded point acts with sigma- alone in this step already. The force is linear in the
     // stress: the eroded points' change of stress is scattered as a correction, serially in the
     // erosion order, instead of a separate pass over all points.
-    if (!erosion_ || erosion_->apply(points_, materials_, steps_ + 1, time_ + dt, nThreads) == 0) return;
+    if (!erosion_) return;
+    if (dist_) dist_->ghosts(points_, grid_, erosion_->settings().kappa, ghosts_);
+    if (erosion_->apply(points_, materials_, steps_ + 1, time_ + dt, nThreads, dist_ ? &ghosts_ : nullptr,
+                        dist_ ? &dist_->transport() : nullptr) == 0)
+        return;
     const auto& eroded = erosion_->lastEroded();
     const auto& before = erosion_->stressBeforeErosion();
     auto& g = grid_;
@@ -339,7 +428,8 @@ template <int D, class K> void Solver<D, K>::erode(double dt, int nThreads)
             volume *= points_.deformationGradient[p].determinant();
         }
         const Mat<D> dvs = volume * (points_.stress[p] - before[e]);
-        st.forEach(g, [&](int I, double, const Vec<D>& grad) { g.force[I] -= dvs * grad; });
+        const std::int64_t id = dist_ ? points_.globalId[p] : p;
+        st.forEach(g, [&](int I, double, const Vec<D>& grad) { addNodeForce(I, -(dvs * grad), 0, id); });
     }
 }
 
@@ -347,13 +437,14 @@ template <int D, class K> void Solver<D, K>::tractionForces()
 {
     // Traction on boundary points (Eq 28); few points, applied serially in a fixed order.
     auto& g = grid_;
-    for (const auto& tc : tractions_) {
+    for (std::size_t c = 0; c < tractions_.size(); ++c) {
+        const auto& tc = tractions_[c];
         const Vec<D> t = (rampFactor(time_, tc.rampTime) * tc.traction).head<D>();
-        for (int p : tc.points) {
+        forEachTractionPoint(c, [&](int p, int k) {
             const St st = stencilOf(p);
             const Vec<D> f = t * (points_.volume[p] / tc.layer);
-            st.forEach(g, [&](int I, double N, const Vec<D>&) { g.force[I] += N * f; });
-        }
+            st.forEach(g, [&](int I, double N, const Vec<D>&) { addNodeForce(I, N * f, 1 + static_cast<std::int64_t>(c), k); });
+        });
     }
 }
 
@@ -361,6 +452,11 @@ template <int D, class K> void Solver<D, K>::applyConditionsAfterForces(double d
 {
     const Support support(this);
     GridState<D> s{grid_, points_, phantom_, time_ + 0.5 * dt, dt, &support};
+    ownedNodes(s.ownedLo, s.ownedHi);
+    if (dist_) {
+        workBefore_.clear();
+        for (const auto& c : velocityConditions_) workBefore_.push_back(c->work);
+    }
     if (contact_) {
         contact_->afterForces(s);
         contactWork_ += contact_->work;
@@ -386,7 +482,7 @@ template <int D, class K> void Solver<D, K>::updateGrid(double dt, int nThreads)
     // Nodal momentum P^{n+1/2} = P^{n-1/2} + dt f (Eq 29); the grid then holds the nodal
     // acceleration (for Eq 30) in `force` and the velocity (for Eq 31) in `velocity`.
     auto& g = grid_;
-    Scheduler<D>::forEachNode(g.totalNodes(), nThreads, [&](int I) {
+    forEachWorkNode(nThreads, [&](int I) {
         g.momentum[I] += dt * g.force[I];
         g.velocity[I] = g.momentum[I] * g.invMass[I];
         g.force[I] *= g.invMass[I];
@@ -399,19 +495,24 @@ template <int D, class K> void Solver<D, K>::accumulateExternalWork(double dt)
     // holds v^{n+1/2} and a now); the velocity conditions add theirs in afterForces. Serial and
     // in a fixed order; only tractions and a non-zero gravity cost anything.
     const auto& g = grid_;
-    for (const auto& tc : tractions_) {
+    workAtStart_[0] = tractionWork_;
+    workAtStart_[1] = gravityWork_;
+    for (std::size_t c = 0; c < tractions_.size(); ++c) {
+        const auto& tc = tractions_[c];
         const Vec<D> t = (rampFactor(time_, tc.rampTime) * tc.traction).head<D>();
-        for (int p : tc.points) {
+        forEachTractionPoint(c, [&](int p, int) {
             const St st = stencilOf(p);
             const Vec<D> f = t * (points_.volume[p] / tc.layer);
             st.forEach(g, [&](int I, double N, const Vec<D>&) {
                 tractionWork_ += dt * N * f.dot(g.velocity[I] - 0.5 * dt * g.force[I]);
             });
-        }
+        });
     }
     const Vec<D> gravity = settings_.gravity.head<D>();
+    int lo, hi;
+    ownedNodes(lo, hi);
     if (!gravity.isZero(0.0))
-        for (int I = 0; I < g.totalNodes(); ++I)
+        for (int I = lo; I < hi; ++I)
             gravityWork_ += dt * g.mass[I] * gravity.dot(g.velocity[I] - 0.5 * dt * g.force[I]);
 }
 
@@ -476,12 +577,8 @@ template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThre
         total.vmax2 = std::max(total.vmax2, part.vmax2);
         total.kinetic += part.kinetic;
     };
-    const Check c = settings_.transfer == Transfer::apic ? schedule_.gather(nThreads, Check{}, body(std::true_type{}), combine)
+    Check c = settings_.transfer == Transfer::apic ? schedule_.gather(nThreads, Check{}, body(std::true_type{}), combine)
                                                          : schedule_.gather(nThreads, Check{}, body(std::false_type{}), combine);
-    kineticAtStep_ = c.kinetic;
-    maxSpeed_ = std::sqrt(c.vmax2);
-    time_ += dt;
-    ++steps_;
     const auto offGrid = [&](const Vec<D>& x) {
         for (int d = 0; d < D; ++d) {
             const int b = K::base((x[d] - g.origin[d]) * g.invh);  // monotone in x
@@ -489,25 +586,60 @@ template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThre
         }
         return false;
     };
-    if (!std::isfinite(c.sum)) {
+    double nonFinite = !std::isfinite(c.sum), off = P.size() > 0 && (offGrid(c.lo) || offGrid(c.hi));
+    if (dist_) {
+        // Every rank learns of a fault anywhere (and stops with it); the diagnostics are summed.
+        std::vector<double> sum{c.kinetic, tractionWork_ - workAtStart_[0], gravityWork_ - workAtStart_[1]};
+        for (std::size_t i = 0; i < velocityConditions_.size(); ++i) {
+            const auto& vc = *velocityConditions_[i];
+            for (int d = 0; d < 3; ++d) sum.push_back(vc.reaction[d]);
+            sum.push_back(vc.work - workBefore_[i]);
+        }
+        std::vector<double> max{nonFinite, off, c.vmax2};
+        dist_->transport().sum(sum.data(), static_cast<int>(sum.size()));
+        dist_->transport().max(max.data(), static_cast<int>(max.size()));
+        c.kinetic = sum[0];
+        tractionWork_ = workAtStart_[0] + sum[1];
+        gravityWork_ = workAtStart_[1] + sum[2];
+        for (std::size_t i = 0; i < velocityConditions_.size(); ++i) {
+            auto& vc = *velocityConditions_[i];
+            for (int d = 0; d < 3; ++d) vc.reaction[d] = sum[3 + 4 * i + d];
+            vc.work = workBefore_[i] + sum[3 + 4 * i + 3];
+        }
+        nonFinite = max[0];
+        off = max[1];
+        c.vmax2 = max[2];
+    }
+    kineticAtStep_ = c.kinetic;
+    maxSpeed_ = std::sqrt(c.vmax2);
+    time_ += dt;
+    ++steps_;
+    const auto id = [&](int p) { return dist_ ? points_.globalId[p] : p; };  // the single-process id
+    if (nonFinite > 0) {
         int first = INT_MAX;
         for (std::size_t p = 0; p < P.size() && first == INT_MAX; ++p)
             if (!P.v[p].allFinite() || !P.x[p].allFinite() || !P.stress[p].allFinite()) first = static_cast<int>(p);
+        if (dist_ && first == INT_MAX)
+            throw SimulationError("EigenMPM: a non-finite value appeared in step " + std::to_string(steps_) +
+                                  " on another rank (its message names the point)");
         if (first != INT_MAX) {  // (else the sum overflowed: every value is finite)
             std::ostringstream s;
             s << "EigenMPM: a non-finite value appeared in step " << steps_ << " (t = " << time_
-              << " s) at point id " << first << " (stress, velocity or position is NaN or "
+              << " s) at point id " << id(first) << " (stress, velocity or position is NaN or "
               << "infinite); check the loads, the material constants and dt";
             throw SimulationError(s.str());
         }
     }
-    if (P.size() > 0 && (offGrid(c.lo) || offGrid(c.hi))) {  // (no point: the box is empty)
+    if (dist_ && off > 0 && !(P.size() > 0 && (offGrid(c.lo) || offGrid(c.hi))))
+        throw SimulationError("EigenMPM: a point left the grid in step " + std::to_string(steps_) +
+                              " on another rank (its message names the point)");
+    if (off > 0) {  // (no point: the box is empty)
         int first = 0;
         while (!offGrid(P.x[first])) ++first;  // the box's corner is one point's coordinate
         Vec<D> hiCorner;
         for (int d = 0; d < D; ++d) hiCorner[d] = g.origin[d] + (g.n[d] - 1) * g.h;
         std::ostringstream s;
-        s << "EigenMPM: point id " << first << " left the grid in step " << steps_ << " (t = "
+        s << "EigenMPM: point id " << id(first) << " left the grid in step " << steps_ << " (t = "
           << time_ << " s): position " << str<D>(P.x[first]) << ", grid nodes span "
           << str<D>(g.origin) << " to " << str<D>(hiCorner)
           << "; give a larger domain (the point is kept, the run stops)";
@@ -552,6 +684,7 @@ template <int D, class K>
 int Solver<D, K>::addPoint(const Eigen::Vector3d& x, const Eigen::Vector3d& v, double volume, int material)
 {
     const int id = static_cast<int>(points_.size());
+    if (dist_) require(false, "point", "added to a distributed run", "points added before distribute()");
     // The messages are built only on failure: this runs once per point of a scene.
     if (!(material >= 0 && material < static_cast<int>(materials_.size())))
         require(false, "material (id)", material,
@@ -710,8 +843,35 @@ template <int D, class K> double Solver<D, K>::criticalTimeStep() const
     return settings_.h / (c + vmax);
 }
 
+template <int D, class K> void Solver<D, K>::distribute(std::shared_ptr<Transport> transport)
+{
+    require(steps_ == 0 && !dist_, "distribute", "called after the first step or twice",
+            "once, before the first step");
+    checkDistributable();
+    initialize();
+    dist_ = std::make_shared<Distribution<D>>(std::move(transport));
+}
+
+template <int D, class K> void Solver<D, K>::checkDistributable() const
+{
+    const std::string not_ = "; a distributed run (doc/parallel.md) does not have it yet: run on one process";
+    require(phantom_.empty(), "pre-existing cracks", phantom_.numCracks(), "none" + not_);
+    require(!points_.bodies, "bodies", "several", "one" + not_);
+    require(!contact_, "contact with YADE bodies", "attached", "none" + not_);
+    require(!crackContact_, "crack-face contact", "on", "off" + not_);
+    for (const auto& c : conditions_) {
+        const bool velocity = std::find_if(velocityConditions_.begin(), velocityConditions_.end(),
+                                           [&](const auto& v) { return v == c; }) != velocityConditions_.end();
+        require(velocity, "grid condition", "other than a velocity condition", "velocity conditions" + not_);
+    }
+    for (const auto& c : velocityConditions_)
+        require(c->points.empty(), "velocity condition on points", c->points.size(),
+                "velocity conditions on regions of nodes" + not_);
+}
+
 template <int D, class K> int Solver<D, K>::addCrack(const std::vector<Eigen::Vector3d>& vertices)
 {
+    require(!dist_, "crack", "added to a distributed run", "cracks only on one process (doc/parallel.md)");
     require(!points_.bodies, "crack", "in an engine with several bodies",
             "cracks only in an engine whose points are all in body 0 (a crack and bodies in one grid "
             "both use the phantom twins; use one engine per cracked body)");
@@ -723,11 +883,26 @@ template <int D, class K> int Solver<D, K>::addCrack(const std::vector<Eigen::Ve
 // =============================================================================================
 // Diagnostics
 // =============================================================================================
+namespace {
+
+/// A sum over points of a distributed run: over all ranks (every rank calls it).
+template <int D, class V> V overRanks(const std::shared_ptr<Distribution<D>>& dist, V v)
+{
+    if (!dist) return v;
+    if constexpr (std::is_same<V, double>::value)
+        dist->transport().sum(&v, 1);
+    else
+        dist->transport().sum(v.data(), static_cast<int>(v.size()));
+    return v;
+}
+
+}  // namespace
+
 template <int D, class K> double Solver<D, K>::kineticEnergy() const
 {
     double e = 0;
     for (std::size_t p = 0; p < points_.size(); ++p) e += 0.5 * points_.mass[p] * points_.v[p].squaredNorm();
-    return e;
+    return overRanks(dist_, e);
 }
 
 template <int D, class K> double Solver<D, K>::elasticEnergy() const
@@ -735,7 +910,7 @@ template <int D, class K> double Solver<D, K>::elasticEnergy() const
     double e = 0;
     for (std::size_t p = 0; p < points_.size(); ++p)
         e += points_.volume[p] * (points_.damage[p] * points_.psiPlus[p] + points_.psiMinus[p]);
-    return e;
+    return overRanks(dist_, e);
 }
 
 template <int D, class K> double Solver<D, K>::externalWork() const
@@ -749,7 +924,7 @@ template <int D, class K> Eigen::Vector3d Solver<D, K>::linearMomentum() const
 {
     Eigen::Vector3d m = Eigen::Vector3d::Zero();
     for (std::size_t p = 0; p < points_.size(); ++p) m.head<D>() += points_.mass[p] * points_.v[p];
-    return m;
+    return overRanks(dist_, m);
 }
 
 template <int D, class K> Eigen::Vector3d Solver<D, K>::angularMomentum() const
@@ -768,7 +943,7 @@ template <int D, class K> Eigen::Vector3d Solver<D, K>::angularMomentum() const
         }
         l += points_.mass[p] * lp;
     }
-    return l;
+    return overRanks(dist_, l);
 }
 
 template <int D, class K> void Solver<D, K>::setVelocityGradient(int p, const Mat<D>& C)

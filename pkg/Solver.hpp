@@ -18,6 +18,7 @@
 #include "BoundaryConditions.hpp"
 #include "CrackFaceContact.hpp"
 #include "Configurations.hpp"
+#include "Distribution.hpp"
 #include "EigenErosion.hpp"
 #include "ElasticMaterial.hpp"
 #include "Grid.hpp"
@@ -109,6 +110,17 @@ public:
     /// Field pairs in contact between bodies after the forces in the last step.
     int bodyContactPairs() const { return bodyContact_.pairsInContact; }
 
+    /// Runs this solver as one rank of a scene distributed over transport->size() processes
+    /// (Distribution.hpp, doc/parallel.md). Every rank builds the same scene and calls this
+    /// before the first step; the first step then keeps this rank's points. The results are
+    /// bitwise those of one process; the diagnostics (energies, momenta, reactions, work) are
+    /// sums over the ranks, and every rank must call them. Refused (ParameterError) with
+    /// pre-existing cracks, several bodies, contact, conditions other than velocity conditions
+    /// on nodes, or after the first step.
+    void distribute(std::shared_ptr<Transport> transport);
+    /// The distribution, or nullptr in a single-process run.
+    const Distribution<D>* distribution() const { return dist_.get(); }
+
     // --- time stepping ------------------------------------------------------------------
     /// APIC: sets point p's affine velocity (its velocity gradient, 1/s) for the next transfer,
     /// e.g. the initial velocity field's gradient (builds the grid if needed). Throws
@@ -176,6 +188,9 @@ private:
 
     // The stages of step(), in order (paper Section 4.1).
     void checkTimeStep(double dt);
+    void distributePoints();
+    /// Throws ParameterError for what a distributed run does not have yet (distribute()).
+    void checkDistributable() const;
     void schedulePoints(int nThreads);
     void markCrackedNodes();
     void markBodyNodes();
@@ -209,6 +224,14 @@ private:
     void mapSupport(St& st, int p, int slot);
     /// APIC's moment matrix diagonal of point p at its current position (Stencil::momentDiagonal).
     Vec<D> momentDiagonalAt(int p) const;
+    /// f(I) for every node this process works on: all of them, or a distributed run's planes.
+    template <class F> void forEachWorkNode(int nThreads, F&& f);
+    /// Adds a serial stage's force f to node I; key orders it in a distributed run (NodeRecord).
+    void addNodeForce(int I, const Vec<D>& f, std::int64_t key0, std::int64_t key1);
+    /// f(point, position in the list) for every point of traction condition t on this process.
+    template <class F> void forEachTractionPoint(std::size_t t, F&& f) const;
+    /// The node range [lo, hi) a distributed run's rank owns (sums over nodes count it once).
+    void ownedNodes(int& lo, int& hi) const;
 
     SolverSettings settings_;
     double lp_;  ///< particle half-width in cells, 1/(2 ppc)
@@ -246,6 +269,12 @@ private:
     std::vector<TractionCondition> tractions_;
     Scheduler<D> schedule_;
     std::vector<St> stencil_;  ///< stencil_[k] is that of point schedule_.order()[k] in this step
+    std::shared_ptr<Distribution<D>> dist_;
+    GhostPoints<D> ghosts_;
+    std::vector<NodeRecord<D>> recordsLeft_, recordsRight_;
+    std::vector<std::vector<std::pair<int, int>>> tractionLocal_;  ///< per traction: (point, position) here
+    std::vector<double> workBefore_;  ///< velocity conditions' work before this step (distributed)
+    double workAtStart_[2] = {0, 0};  ///< traction and gravity work before this step
     double time_ = 0, maxSpeed_ = 0;
     double kineticAtStep_ = 0, tractionWork_ = 0, gravityWork_ = 0, contactWork_ = 0;
     std::int64_t steps_ = 0;

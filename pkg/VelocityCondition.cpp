@@ -33,7 +33,7 @@ template <int D> void VelocityCondition<D>::afterForces(GridState<D>& s)
         for (int d = 0; d < D; ++d) {
             if (!(mask & (1u << d))) continue;
             const double applied = (g.mass[I] * vbar[d] - g.momentum[I][d]) / s.dt;
-            reaction[d] += applied - g.force[I][d];
+            if (I >= s.ownedLo && I < s.ownedHi) reaction[d] += applied - g.force[I][d];
             g.force[I][d] = applied;
         }
     });

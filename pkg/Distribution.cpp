@@ -1,0 +1,219 @@
+#include "Distribution.hpp"
+
+#include <cmath>
+#include <limits>
+
+#include "Scheduler.hpp"
+
+namespace emp {
+
+template <int D> Distribution<D>::Distribution(std::shared_ptr<Transport> t) : t_(std::move(t))
+{
+    require(t_ != nullptr, "transport", "null", "a Transport object");
+    rank_ = t_->rank();
+    size_ = t_->size();
+    require(size_ >= 1, "number of ranks", size_, ">= 1");
+}
+
+template <int D>
+void Distribution<D>::partition(MaterialPoints<D>& P, const std::vector<int>& stripOf, int numStrips, int S, int nLast)
+{
+    if (numStrips < size_)
+        require(false, "number of ranks", size_,
+                "at most the number of strips of " + std::to_string(Scheduler<D>::stripWidth) +
+                    " cells along the last axis, " + std::to_string(numStrips) + " here (a smaller h, or fewer ranks)");
+    // Rank r starts at the first strip where the points before it reach r/size of all; at least
+    // one strip each.
+    std::vector<long> count(numStrips, 0);
+    for (int s : stripOf) ++count[s];
+    const long total = static_cast<long>(stripOf.size());
+    std::vector<int> first(size_ + 1, 0);
+    first[size_] = numStrips;
+    long before = 0;  // points in the strips before s
+    int s = 0;
+    for (int r = 1; r < size_; ++r) {
+        while (s < numStrips && before * size_ < total * r) before += count[s++];
+        first[r] = std::min(std::max(s, first[r - 1] + 1), numStrips - (size_ - r));
+        for (; s < first[r]; ++s) before += count[s];
+        for (; s > first[r]; --s) before -= count[s - 1];
+    }
+    setRanges(first, S, nLast);
+    // Keep this rank's points, numbered by their index in the whole scene.
+    std::vector<int> mine;
+    for (int p = 0; p < static_cast<int>(stripOf.size()); ++p)
+        if (stripOf[p] >= first[rank_] && stripOf[p] < first[rank_ + 1]) mine.push_back(p);
+    P.distributed = true;
+    P.globalId.resize(P.size());
+    for (std::size_t p = 0; p < P.size(); ++p) P.globalId[p] = static_cast<std::int32_t>(p);
+    P.forEachArray([&](const char* name, auto& a) {
+        if (!P.carries(name)) return;
+        std::decay_t<decltype(a)> next;
+        next.reserve(mine.size());
+        for (int p : mine) next.push_back(a[p]);
+        a.swap(next);
+    });
+}
+
+template <int D> void Distribution<D>::setRanges(const std::vector<int>& first, int S, int nLast)
+{
+    require(static_cast<int>(first.size()) == size_ + 1, "strip ranges", first.size(), "one per rank, and the end");
+    first_ = first;
+    setRangesOf(S, nLast);
+}
+
+template <int D> void Distribution<D>::setRangesOf(int S, int nLast)
+{
+    constexpr int W = Scheduler<D>::stripWidth;
+    S_ = S;
+    const int a = first_[rank_], b = first_[rank_ + 1];
+    // A strip s holds the points of base node s W .. s W + W - 1, which reach up to S - 1 planes
+    // further.
+    planeLo_ = a * W;
+    planeHi_ = std::min(nLast, b * W + S - 1);
+    ownedLo_ = rank_ == 0 ? 0 : planeLo_;
+    ownedHi_ = rank_ == size_ - 1 ? nLast : b * W;
+    leftShared_ = planeLo_ + S - 1;
+    rightShared_ = b * W;
+}
+
+template <int D> bool Distribution<D>::writesFirst(int side) const
+{
+    // At the boundary before strip B, the strip B - 1 (left rank) and B (right rank) share
+    // planes; colour 0 (even strips) writes first.
+    const int B = side > 0 ? first_[rank_ + 1] : first_[rank_];
+    const bool leftFirst = (B - 1) % 2 == 0;
+    return side > 0 ? leftFirst : !leftFirst;
+}
+
+template <int D>
+std::vector<char> Distribution<D>::planes(const Grid<D>& g, int lo, int hi, const std::vector<NodeField>& fields) const
+{
+    const int stride = g.stride[D - 1];
+    Bytes b;
+    for (const NodeField& f : fields)
+        for (int I = lo * stride; I < hi * stride; ++I)
+            for (int c = 0; c < f.width; ++c) b.put(f.data[static_cast<std::size_t>(I) * f.width + c]);
+    return b.data;
+}
+
+template <int D>
+void Distribution<D>::setPlanes(const Grid<D>& g, int lo, const std::vector<char>& bytes, const std::vector<NodeField>& fields) const
+{
+    if (bytes.empty()) return;
+    const int stride = g.stride[D - 1];
+    Bytes b;
+    b.data = bytes;
+    for (const NodeField& f : fields)
+        for (int I = lo * stride; I < (lo + S_ - 1) * stride; ++I)
+            for (int c = 0; c < f.width; ++c) f.data[static_cast<std::size_t>(I) * f.width + c] = b.get<double>();
+}
+
+template <int D> void Distribution<D>::afterFirstColour(const Grid<D>& g, const std::vector<NodeField>& fields)
+{
+    std::vector<char> toLeft, toRight, fromLeft, fromRight;
+    if (rank_ > 0 && writesFirst(-1)) toLeft = planes(g, planeLo_, leftShared_, fields);
+    if (rank_ < size_ - 1 && writesFirst(1)) toRight = planes(g, rightShared_, rightShared_ + S_ - 1, fields);
+    t_->exchange(toLeft, toRight, fromLeft, fromRight);
+    setPlanes(g, planeLo_, fromLeft, fields);
+    setPlanes(g, rightShared_, fromRight, fields);
+}
+
+template <int D> void Distribution<D>::finishScatter(const Grid<D>& g, const std::vector<NodeField>& fields)
+{
+    std::vector<char> toLeft, toRight, fromLeft, fromRight;
+    if (rank_ > 0 && !writesFirst(-1)) toLeft = planes(g, planeLo_, leftShared_, fields);
+    if (rank_ < size_ - 1 && !writesFirst(1)) toRight = planes(g, rightShared_, rightShared_ + S_ - 1, fields);
+    t_->exchange(toLeft, toRight, fromLeft, fromRight);
+    setPlanes(g, planeLo_, fromLeft, fields);
+    setPlanes(g, rightShared_, fromRight, fields);
+}
+
+template <int D>
+void Distribution<D>::applyRecords(std::vector<NodeRecord<D>>& left, std::vector<NodeRecord<D>>& right, NodeField f)
+{
+    const auto bytes = [](const std::vector<NodeRecord<D>>& r) {
+        Bytes b;
+        for (const auto& x : r) b.put(x);
+        return b.data;
+    };
+    std::vector<char> fromLeft, fromRight;
+    t_->exchange(bytes(left), bytes(right), fromLeft, fromRight);
+    const auto apply = [&](std::vector<NodeRecord<D>>& mine, const std::vector<char>& theirs) {
+        Bytes b;
+        b.data = theirs;
+        while (!b.done()) mine.push_back(b.template get<NodeRecord<D>>());
+        std::stable_sort(mine.begin(), mine.end(), [](const NodeRecord<D>& a, const NodeRecord<D>& c) {
+            return a.key[0] != c.key[0] ? a.key[0] < c.key[0] : a.key[1] < c.key[1];
+        });
+        for (const auto& r : mine)
+            for (int d = 0; d < D; ++d) f.data[static_cast<std::size_t>(r.node) * D + d] += r.value[d];
+    };
+    apply(left, fromLeft);
+    apply(right, fromRight);
+}
+
+template <int D>
+void Distribution<D>::ghosts(const MaterialPoints<D>& P, const Grid<D>& g, double reach, GhostPoints<D>& out)
+{
+    // The planes this rank owns, widened by the reach and by the two cells a point's base node
+    // may lie from its position: a neighbour's point nearer than that is sent.
+    const double lo = g.origin[D - 1] + (first_[rank_] * Scheduler<D>::stripWidth) * g.h;
+    const double hi = g.origin[D - 1] + (first_[rank_ + 1] * Scheduler<D>::stripWidth) * g.h;
+    const double margin = reach + 2 * g.h;
+    Bytes toLeft, toRight;
+    for (std::size_t p = 0; p < P.size(); ++p) {
+        const double z = P.x[p][D - 1];
+        for (Bytes* b : {rank_ > 0 && z <= lo + margin ? &toLeft : nullptr,
+                         rank_ < size_ - 1 && z >= hi - margin ? &toRight : nullptr})
+            if (b) {
+                b->put(P.globalId[p]);
+                b->put(P.x[p]);
+                b->put(P.mass[p]);
+                b->put(P.history[p]);
+                b->put(P.damage[p]);
+            }
+    }
+    Bytes fromLeft, fromRight;
+    t_->exchange(toLeft.data, toRight.data, fromLeft.data, fromRight.data);
+    // Each neighbour sent its points in globalId order: merged into one sorted list.
+    struct Ghost {
+        std::int32_t id;
+        Vec<D> x;
+        double mass, history, damage;
+    };
+    std::vector<Ghost> all;
+    for (Bytes* b : {&fromLeft, &fromRight})
+        while (!b->done()) {
+            Ghost q;
+            q.id = b->get<std::int32_t>();
+            q.x = b->get<Vec<D>>();
+            q.mass = b->get<double>();
+            q.history = b->get<double>();
+            q.damage = b->get<double>();
+            all.push_back(q);
+        }
+    std::stable_sort(all.begin(), all.end(), [](const Ghost& a, const Ghost& b) { return a.id < b.id; });
+    out.x.clear();
+    out.mass.clear();
+    out.history.clear();
+    out.damage.clear();
+    out.id.clear();
+    for (const Ghost& q : all) {
+        out.id.push_back(q.id);
+        out.x.push_back(q.x);
+        out.mass.push_back(q.mass);
+        out.history.push_back(q.history);
+        out.damage.push_back(q.damage);
+    }
+}
+
+template <int D> int Distribution<D>::localIndex(const MaterialPoints<D>& P, int id) const
+{
+    const auto it = std::lower_bound(P.globalId.begin(), P.globalId.end(), id);
+    return it != P.globalId.end() && *it == id ? static_cast<int>(it - P.globalId.begin()) : -1;
+}
+
+template class Distribution<2>;
+template class Distribution<3>;
+
+}  // namespace emp

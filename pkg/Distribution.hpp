@@ -1,0 +1,238 @@
+// One scene over several processes (ranks), by domain decomposition of the Scheduler's strips
+// (issue 17; doc/parallel.md). Every rank runs the same step on its part:
+//
+//   - a rank owns a contiguous range of strips along the last axis, chosen once so that the
+//     ranks hold equal numbers of points, and the points binned there; a point that moves into a
+//     neighbour's range migrates at the start of the next step;
+//   - it works on the node planes its points reach; two neighbouring ranks share the S - 1
+//     planes where their boundary strips overlap (the ghost layer);
+//   - a scatter to the grid runs in the Scheduler's two colours. At a shared plane, the rank
+//     whose boundary strip has colour 0 writes first, hands its partial sums to the other rank
+//     between the colours, and the other adds its own and hands the totals back: every node
+//     receives its contributions in the order of the single-process step;
+//   - the serial contributions (eroded points' corrections, tractions) to shared planes are
+//     exchanged and applied on both ranks in the single-process order (by a key);
+//   - eigenerosion sees the points of the neighbours within its reach (ghost points), in the
+//     single-process order, and the erosion events are gathered on every rank.
+//
+// The points of a rank stay sorted by their id in the single-process scene (globalId), so that
+// every sum over points runs in the single-process order: the results are bitwise those of one
+// process for any number of ranks (tests/mpi). Sums over all points for diagnostics (energies,
+// momenta, reactions) are reduced over the ranks and may differ at round-off.
+//
+// The core does no message passing itself: a Transport (mpi/MpiTransport.hpp, or a test
+// double) carries the bytes.
+#pragma once
+#include <algorithm>
+#include <cstdint>
+#include <cstring>
+#include <memory>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+#include "Errors.hpp"
+#include "Grid.hpp"
+#include "MaterialPoints.hpp"
+
+namespace emp {
+
+/// The message passing a distributed run needs; the ranks form a line (rank - 1, rank + 1).
+class Transport {
+public:
+    virtual ~Transport() = default;
+    virtual int rank() const = 0;
+    virtual int size() const = 0;
+    /// Sends toLeft to rank - 1 and toRight to rank + 1 (nothing past the ends) and receives
+    /// what those ranks sent to this one (empty past the ends). Every rank calls it.
+    virtual void exchange(const std::vector<char>& toLeft, const std::vector<char>& toRight,
+                          std::vector<char>& fromLeft, std::vector<char>& fromRight) = 0;
+    /// Element-wise sum or maximum over the ranks, in place; every rank gets the same values.
+    virtual void sum(double* v, int n) = 0;
+    virtual void max(double* v, int n) = 0;
+    /// Every rank's bytes, in rank order, on every rank.
+    virtual std::vector<std::vector<char>> allGather(const std::vector<char>& mine) = 0;
+};
+
+/// A byte buffer written and read in the same order: plain values (numbers, fixed-size Eigen
+/// vectors and matrices of doubles, structs of them), copied as their bytes.
+class Bytes {
+public:
+    std::vector<char> data;
+    template <class T> void put(const T& v)
+    {
+        static_assert(std::is_standard_layout<T>::value, "plain values only");
+        const std::size_t at = data.size();
+        data.resize(at + sizeof(T));
+        std::memcpy(data.data() + at, static_cast<const void*>(&v), sizeof(T));
+    }
+    template <class T> T get()
+    {
+        T v;
+        std::memcpy(static_cast<void*>(&v), data.data() + read_, sizeof(T));
+        read_ += sizeof(T);
+        return v;
+    }
+    bool done() const { return read_ >= data.size(); }
+
+private:
+    std::size_t read_ = 0;
+};
+
+/// A nodal array as doubles: node I's `width` values start at data + I * width.
+struct NodeField {
+    double* data;
+    int width;
+};
+
+/// A contribution of a serial stage to one node, applied everywhere in the order of `key`
+/// (the single-process order: stage, then the point's or condition's order in it).
+template <int D> struct NodeRecord {
+    std::int64_t key[2];
+    int node;
+    double value[D];
+};
+
+/// What eigenerosion needs of the neighbours' points near this rank (ghost points), sorted by
+/// globalId.
+template <int D> struct GhostPoints {
+    std::vector<Vec<D>> x;
+    std::vector<double> mass, history, damage;
+    std::vector<std::int32_t> id;
+    std::size_t size() const { return x.size(); }
+};
+
+template <int D> class Distribution {
+public:
+    /// Throws ParameterError for a transport of fewer than one rank.
+    explicit Distribution(std::shared_ptr<Transport> t);
+    int rank() const { return rank_; }
+    int size() const { return size_; }
+    Transport& transport() { return *t_; }
+    bool partitioned() const { return !first_.empty(); }
+
+    /// Chooses the strip ranges (every rank holds every point now, and the same ones) so that
+    /// the ranks hold nearly equal numbers of points, and keeps this rank's points, numbering
+    /// them by their index now (globalId). stripOf[p] is point p's strip, numStrips their
+    /// number, S the kernel's support, nLast the nodes along the last axis. Throws
+    /// ParameterError when there are fewer strips than ranks.
+    void partition(MaterialPoints<D>& P, const std::vector<int>& stripOf, int numStrips, int S, int nLast);
+    /// The same ranges as another run's (a restart): first[r] is rank r's first strip.
+    void setRanges(const std::vector<int>& first, int S, int nLast);
+    const std::vector<int>& firstStrips() const { return first_; }
+
+    /// Sends the points whose strip (stripOf(x)) left this rank's range to the neighbour that
+    /// owns it and takes theirs, keeping the points sorted by globalId. Throws SimulationError
+    /// (on every rank) when a point skipped a whole neighbour's range.
+    template <class StripOf> void migrate(MaterialPoints<D>& P, StripOf&& stripOf);
+
+    /// Node planes (along the last axis) this rank works on, [lo, hi), and those it owns (each
+    /// plane owned by one rank: reactions and sums over nodes count it once).
+    int planeLo() const { return planeLo_; }
+    int planeHi() const { return planeHi_; }
+    int ownedLo() const { return ownedLo_; }
+    int ownedHi() const { return ownedHi_; }
+    /// Whether node plane i is shared with the left (-1) or right (+1) neighbour, else 0.
+    int sharedSide(int plane) const
+    {
+        if (rank_ > 0 && plane < leftShared_) return -1;
+        if (rank_ < size_ - 1 && plane >= rightShared_) return 1;
+        return 0;
+    }
+
+    /// Between the two colours of a scatter: the rank that wrote a shared plane first hands it on.
+    void afterFirstColour(const Grid<D>& g, const std::vector<NodeField>& fields);
+    /// After a scatter: the rank that wrote a shared plane last hands the totals back.
+    void finishScatter(const Grid<D>& g, const std::vector<NodeField>& fields);
+    /// Applies the serial contributions to shared planes (left, right) of this rank and of its
+    /// neighbours, in key order, to the field f (width D).
+    void applyRecords(std::vector<NodeRecord<D>>& left, std::vector<NodeRecord<D>>& right, NodeField f);
+
+    /// The neighbours' points within `reach` of this rank's range along the last axis.
+    void ghosts(const MaterialPoints<D>& P, const Grid<D>& g, double reach, GhostPoints<D>& out);
+
+    /// Index of the point of globalId `id` among this rank's points, or -1.
+    int localIndex(const MaterialPoints<D>& P, int id) const;
+
+private:
+    std::vector<char> planes(const Grid<D>& g, int lo, int hi, const std::vector<NodeField>& fields) const;
+    void setPlanes(const Grid<D>& g, int lo, const std::vector<char>& bytes, const std::vector<NodeField>& fields) const;
+    void setRangesOf(int S, int nLast);
+    /// Whether this rank writes first at its boundary with the right (+1) or left (-1) neighbour.
+    bool writesFirst(int side) const;
+
+    std::shared_ptr<Transport> t_;
+    int rank_ = 0, size_ = 1;
+    std::vector<int> first_;  ///< first strip of every rank, and the number of strips at the end
+    int planeLo_ = 0, planeHi_ = 0, ownedLo_ = 0, ownedHi_ = 0, leftShared_ = 0, rightShared_ = 0;
+    int S_ = 0;
+};
+
+template <int D>
+template <class StripOf>
+void Distribution<D>::migrate(MaterialPoints<D>& P, StripOf&& stripOf)
+{
+    const int n = static_cast<int>(P.size());
+    const int lo = first_[rank_], hi = first_[rank_ + 1];
+    std::vector<int> keep, left, right;
+    keep.reserve(n);
+    for (int p = 0; p < n; ++p) {
+        const int s = stripOf(P.x[p]);
+        (s < 0 || (s >= lo && s < hi) ? keep : s < lo ? left : right).push_back(p);
+    }
+    // Both neighbours are told how many arrive (0 too): every rank takes part in every exchange.
+    Bytes toLeft, toRight;
+    const auto pack = [&](const std::vector<int>& ids, Bytes& b) {
+        b.put(static_cast<int>(ids.size()));
+        P.forEachArray([&](const char* name, auto& a) {
+            if (!P.carries(name)) return;
+            for (int p : ids) b.put(a[p]);
+        });
+    };
+    pack(left, toLeft);
+    pack(right, toRight);
+    Bytes fromLeft, fromRight;
+    t_->exchange(toLeft.data, toRight.data, fromLeft.data, fromRight.data);
+    int arriving[2] = {fromLeft.data.empty() ? 0 : fromLeft.get<int>(), fromRight.data.empty() ? 0 : fromRight.get<int>()};
+    double moved = static_cast<double>(left.size() + right.size() + arriving[0] + arriving[1]);
+    t_->sum(&moved, 1);
+    if (moved == 0) return;
+    // The kept points (in globalId order), then the arrivals; then all sorted by globalId.
+    std::vector<int> order(keep.size() + arriving[0] + arriving[1]);
+    P.forEachArray([&](const char* name, auto& a) {
+        if (!P.carries(name)) return;
+        using T = typename std::decay_t<decltype(a)>::value_type;
+        std::vector<T> next;
+        next.reserve(order.size());
+        for (int p : keep) next.push_back(a[p]);
+        for (int k = 0; k < arriving[0]; ++k) next.push_back(fromLeft.get<T>());
+        for (int k = 0; k < arriving[1]; ++k) next.push_back(fromRight.get<T>());
+        a.swap(next);
+    });
+    // Three runs sorted by globalId (kept, from the left, from the right): two merges.
+    const std::vector<std::int32_t>& id = P.globalId;
+    for (std::size_t k = 0; k < order.size(); ++k) order[k] = static_cast<int>(k);
+    const auto byId = [&](int a, int b) { return id[a] < id[b]; };
+    const auto fromL = order.begin() + keep.size(), fromR = fromL + arriving[0];
+    std::inplace_merge(order.begin(), fromL, fromR, byId);
+    std::inplace_merge(order.begin(), fromR, order.end(), byId);
+    P.forEachArray([&](const char* name, auto& a) {
+        if (!P.carries(name)) return;
+        std::decay_t<decltype(a)> next(a.size());
+        for (std::size_t k = 0; k < order.size(); ++k) next[k] = a[order[k]];
+        a.swap(next);
+    });
+    // A point must land in the range of the rank it was sent to (it moves less than a cell in a
+    // step, a range is at least one strip wide): checked on every rank, reported by all.
+    double skipped = 0;
+    for (std::size_t p = 0; p < P.size(); ++p) {
+        const int s = stripOf(P.x[p]);
+        if (s >= 0 && (s < lo || s >= hi)) skipped = 1;
+    }
+    t_->max(&skipped, 1);
+    if (skipped > 0)
+        throw SimulationError("EigenMPM: a point moved past a whole neighbouring rank's strips in one step; "
+                              "use fewer ranks or a smaller dt");
+}
+
+}  // namespace emp

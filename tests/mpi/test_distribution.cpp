@@ -1,0 +1,214 @@
+// A distributed run (pkg/Distribution.hpp) against the same scene on one process. Run by ctest
+// as mpiexec -n 1, 2 and 3: every rank steps the whole scene alone (the reference) and its part
+// of the distributed scene, then compares its points with the reference's of the same id,
+// bitwise, and the diagnostics (sums over the ranks) to round-off.
+#include <gtest/gtest.h>
+#include <mpi.h>
+
+#include <cmath>
+#include <cstring>
+#include <functional>
+#include <memory>
+
+#include "../cpp/test_helpers.hpp"
+#include "MpiTransport.hpp"
+
+namespace {
+
+using emp::Vec;
+using emptest::to3;
+
+std::shared_ptr<emp::MpiTransport> transport()
+{
+    static auto t = std::make_shared<emp::MpiTransport>();
+    return t;
+}
+
+template <class T> bool sameBits(const T& a, const T& b) { return std::memcmp(&a, &b, sizeof(T)) == 0; }
+
+/// Builds the scene into a solver (the same on every rank and for both runs).
+template <int D, class K> using Build = std::function<void(emp::Solver<D, K>&)>;
+
+struct Outcome {
+    int compared = 0, differing = 0;
+    long points = 0;  ///< points over all ranks
+    bool migrated = false;
+};
+
+/// Runs `steps` steps of the scene on one process and distributed; compares every point.
+template <int D, class K>
+Outcome compare(const emp::SolverSettings& settings, const Build<D, K>& build, int steps, double dtFraction,
+                int threads = 1)
+{
+    emp::Solver<D, K> one(settings), dist(settings);
+    build(one);
+    build(dist);
+    dist.distribute(transport());
+    const double dt = dtFraction * one.criticalTimeStep();
+    Outcome o;
+    std::size_t firstCount = 0;
+    for (int n = 0; n < steps; ++n) {
+        one.step(dt, threads);
+        dist.step(dt, threads);
+        if (n == 0) firstCount = dist.points().size();
+        o.migrated = o.migrated || dist.points().size() != firstCount;
+    }
+    const auto& P = dist.points();
+    const auto& R = one.points();
+    for (std::size_t p = 0; p < P.size(); ++p) {
+        const int q = P.globalId[p];
+        const bool same = sameBits(P.x[p], R.x[q]) && sameBits(P.v[p], R.v[q]) && sameBits(P.stress[p], R.stress[q]) &&
+                          sameBits(P.strain[p], R.strain[q]) && sameBits(P.damage[p], R.damage[q]) &&
+                          sameBits(P.history[p], R.history[q]);
+        ++o.compared;
+        o.differing += !same;
+        if (!same && o.differing <= 3)
+            ADD_FAILURE() << "rank " << transport()->rank() << ": point " << q << " differs: x " << P.x[p].transpose()
+                          << " vs " << R.x[q].transpose() << ", v " << P.v[p].transpose() << " vs " << R.v[q].transpose();
+    }
+    double counts[2] = {static_cast<double>(P.size()), o.migrated ? 1.0 : 0.0};
+    transport()->sum(counts, 2);
+    o.points = static_cast<long>(counts[0]);
+    o.migrated = counts[1] > 0;
+    EXPECT_EQ(o.points, static_cast<long>(R.size()));
+    // Diagnostics: sums over the ranks, in another order than one process's.
+    const double tol = 1e-12;
+    EXPECT_NEAR(dist.kineticEnergy(), one.kineticEnergy(), tol * one.kineticEnergy());
+    EXPECT_NEAR(dist.elasticEnergy(), one.elasticEnergy(), tol * std::abs(one.elasticEnergy()) + 1e-300);
+    EXPECT_NEAR(dist.externalWork(), one.externalWork(), tol * std::abs(one.externalWork()) + 1e-300);
+    EXPECT_NEAR(dist.kineticEnergyAtStep(), one.kineticEnergyAtStep(), tol * std::abs(one.kineticEnergyAtStep()));
+    EXPECT_LE((dist.linearMomentum() - one.linearMomentum()).norm(), 1e-10 * (1 + one.linearMomentum().norm()));
+    for (std::size_t c = 0; c < one.velocityConditions().size(); ++c)
+        EXPECT_LE((dist.reaction(static_cast<int>(c)) - one.reaction(static_cast<int>(c))).norm(),
+                  1e-10 * one.reaction(static_cast<int>(c)).norm() + 1e-300);
+    EXPECT_TRUE(sameBits(dist.criticalTimeStep(), one.criticalTimeStep()));
+    if (one.erosion()) {
+        EXPECT_EQ(dist.erosion()->erodedCount(), one.erosion()->erodedCount());
+        EXPECT_TRUE(sameBits(dist.erosion()->dissipatedEnergy(), one.erosion()->dissipatedEnergy()));
+        const auto& a = dist.erosion()->events();
+        const auto& b = one.erosion()->events();
+        for (std::size_t e = 0; e < std::min(a.size(), b.size()); ++e) {
+            EXPECT_EQ(a[e].point, b[e].point);
+            EXPECT_EQ(a[e].step, b[e].step);
+        }
+    }
+    return o;
+}
+
+/// A plate (cells along y more than the ranks need) loaded by tractions on its top and bottom
+/// rows, its left edge on rollers, with erosion: a crack runs from a notch.
+template <class K> void crackedPlate(emp::Solver<2, K>& s, bool erosion)
+{
+    const double h = s.settings().h;
+    const int glass = s.addMaterial(72e9, 0.22, 2440, true, emp::lawIndex("spectral"));
+    const int nx = 24, ny = 24;
+    s.setDomain(Eigen::Vector3d(-3 * h, -3 * h, 0), Eigen::Vector3d((nx + 3) * h, (ny + 3) * h, 0));
+    std::vector<int> top, bottom;
+    const double dx = h / s.settings().ppc;
+    for (int j = 0; j < ny * s.settings().ppc; ++j)
+        for (int i = 0; i < nx * s.settings().ppc; ++i) {
+            const Vec<2> x((i + 0.5) * dx, (j + 0.5) * dx);
+            // a notch from the left edge to a third of the plate, one cell high, at mid-height
+            if (x[0] < nx * h / 3 && std::abs(x[1] - ny * h / 2) < 0.5 * h) continue;
+            const int id = s.addPoint(to3<2>(x), Eigen::Vector3d::Zero(), dx * dx * h, glass);
+            if (x[1] > (ny - 1) * h) top.push_back(id);
+            if (x[1] < h) bottom.push_back(id);
+        }
+    s.addTraction(top, Eigen::Vector3d(0, 12e6, 0), 0, h);
+    s.addTraction(bottom, Eigen::Vector3d(0, -12e6, 0), 0, h);
+    std::vector<int> left;
+    s.initialize();
+    for (int I = 0; I < s.grid().numNodes(); ++I)
+        if (s.grid().nodePosition(I)[0] <= 0) left.push_back(I);
+    s.addVelocityCondition(left, {}, 1u, Eigen::Vector3d::Zero(), 0);
+    if (erosion) s.setErosion(std::make_shared<emp::EigenErosion<2>>(emp::ErosionSettings{30.0, 2.0, 1.1 * h}));
+}
+
+TEST(Distribution, CrackedPlateErodesBitwiseAsOnOneProcess)
+{
+    const auto settings = emptest::typicalSettings(1e-3);
+    const auto o = compare<2, emp::GimpKernel>(settings, [](auto& s) { crackedPlate(s, true); }, 400, 0.5);
+    EXPECT_EQ(o.differing, 0);
+    EXPECT_GT(o.compared, 0);
+    // The scene must crack, or the erosion exchange goes untested.
+    emp::Solver<2, emp::GimpKernel> one(settings);
+    crackedPlate(one, true);
+    const double dt = 0.5 * one.criticalTimeStep();
+    for (int n = 0; n < 400; ++n) one.step(dt, 1);
+    EXPECT_GT(one.erosion()->erodedCount(), 20u);
+}
+
+TEST(Distribution, CrackedPlateOnTwoThreadsPerRank)
+{
+    const auto o = compare<2, emp::GimpKernel>(emptest::typicalSettings(1e-3), [](auto& s) { crackedPlate(s, true); },
+                                               150, 0.5, 2);
+    EXPECT_EQ(o.differing, 0);
+}
+
+TEST(Distribution, FlyingBlockMigratesWithApicAndCorotationalUpdate)
+{
+    // A spinning, flying block under gravity: its points cross every rank boundary.
+    for (const auto& [transfer, update] : {std::pair{emp::Transfer::apic, emp::StressUpdate::corotational},
+                                           std::pair{emp::Transfer::flip, emp::StressUpdate::smallStrain}}) {
+        auto settings = emptest::typicalSettings(0.01);
+        settings.transfer = transfer;
+        settings.stressUpdate = update;
+        settings.gravity = Eigen::Vector3d(0, -9.81, 0);
+        const auto build = [](emp::Solver<2, emp::GimpKernel>& s) {
+            const int m = s.addMaterial(1e6, 0.3, 1000, false, emp::lawIndex("spectral"));
+            s.setDomain(Eigen::Vector3d(-0.05, -0.05, 0), Eigen::Vector3d(0.25, 0.6, 0));
+            emptest::addBlock<2, emp::GimpKernel>(s, {2, 2}, {12, 10}, m, [](const Vec<2>& x) {
+                return Vec<2>(-2.0 * (x[1] - 0.06), 8.0 + 2.0 * (x[0] - 0.07));
+            });
+        };
+        const auto o = compare<2, emp::GimpKernel>(settings, build, 300, 0.5);
+        EXPECT_EQ(o.differing, 0);
+        if (transport()->size() > 1) EXPECT_TRUE(o.migrated);
+    }
+}
+
+TEST(Distribution, Block3dUnderGravityOnSupports)
+{
+    auto settings = emptest::typicalSettings(0.01);
+    settings.gravity = Eigen::Vector3d(0, 0, -9.81);
+    const auto build = [](emp::Solver<3, emp::GimpKernel>& s) {
+        const int m = s.addMaterial(1e6, 0.3, 1000, false, emp::lawIndex("spectral"));
+        s.setDomain(Eigen::Vector3d(-0.03, -0.03, -0.03), Eigen::Vector3d(0.09, 0.09, 0.2));
+        emptest::addBlock<3, emp::GimpKernel>(s, {0, 0, 0}, {6, 6, 16}, m);
+        std::vector<int> base;
+        s.initialize();
+        for (int I = 0; I < s.grid().numNodes(); ++I)
+            if (s.grid().nodePosition(I)[2] <= 0) base.push_back(I);
+        s.addVelocityCondition(base, {}, 7u, Eigen::Vector3d::Zero(), 0);
+    };
+    const auto o = compare<3, emp::GimpKernel>(settings, build, 60, 0.5);
+    EXPECT_EQ(o.differing, 0);
+}
+
+TEST(Distribution, LinearShapeFunction)
+{
+    const auto o = compare<2, emp::LinearKernel>(emptest::typicalSettings(1e-3), [](auto& s) { crackedPlate(s, true); },
+                                                 200, 0.5);
+    EXPECT_EQ(o.differing, 0);
+}
+
+TEST(Distribution, RefusesWhatItDoesNotHave)
+{
+    emp::Solver<2, emp::GimpKernel> s(emptest::typicalSettings(1e-3));
+    crackedPlate(s, false);
+    s.addCrack({Eigen::Vector3d(0, 0.012, 0), Eigen::Vector3d(0.01, 0.012, 0)});
+    EXPECT_THROW(s.distribute(transport()), emp::ParameterError);
+}
+
+}  // namespace
+
+int main(int argc, char** argv)
+{
+    ::testing::InitGoogleTest(&argc, argv);
+    transport();  // MPI up before the tests
+    // Every rank runs every test (they communicate) and prints its results.
+    const int failed = RUN_ALL_TESTS();
+    int any = failed;
+    MPI_Allreduce(&failed, &any, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+    return any;
+}
