@@ -17,6 +17,7 @@
 #include "ErosionCalibration.hpp"
 #include "Errors.hpp"
 #include "Laws.hpp"
+#include "MpiTransport.hpp"
 #include "Solver.hpp"
 
 namespace bp = boost::python;
@@ -471,6 +472,15 @@ template <class Sv> struct Bind {
     static np::ndarray psiMinus(const Sv& s) { return scalars(s.points().psiMinus); }
     static np::ndarray history(const Sv& s) { return scalars(s.points().history); }
     static np::ndarray damage(const Sv& s) { return scalars(s.points().damage); }
+    /// The points' ids in the single-process scene: 0, 1, ... unless distributed (doc/parallel.md).
+    static np::ndarray globalIds(const Sv& s)
+    {
+        const long n = static_cast<long>(s.points().size());
+        np::ndarray a = np::zeros(bp::make_tuple(n), np::dtype::get_builtin<std::int64_t>());
+        auto* out = reinterpret_cast<std::int64_t*>(a.get_data());
+        for (long p = 0; p < n; ++p) out[p] = s.distribution() ? s.points().globalId[p] : p;
+        return a;
+    }
     static np::ndarray volume(const Sv& s) { return scalars(s.points().volume); }
     static np::ndarray mass(const Sv& s) { return scalars(s.points().mass); }
     static np::ndarray material(const Sv& s) { return scalars(s.points().material); }
@@ -638,6 +648,10 @@ template <class Sv> struct Bind {
             .def("psiPlus", &psiPlus)
             .def("psiMinus", &psiMinus)
             .def("history", &history)
+            .def("globalIds", &globalIds)
+            .def("distribute", +[](Sv& s) { s.distribute(std::make_shared<emp::MpiTransport>()); })
+            .add_property("rank", +[](const Sv& s) { return s.distribution() ? s.distribution()->rank() : 0; })
+            .add_property("ranks", +[](const Sv& s) { return s.distribution() ? s.distribution()->size() : 1; })
             .def("damage", &damage)
             .def("volume", &volume)
             .def("mass", &mass)

@@ -10,7 +10,7 @@ Put the engines in ``O.engines`` beside YADE's own::
     O.engines = [mpm, em.VTKRecorder(fileName='out/bar-', iterPeriod=100),
                  em.PlotRecorder(iterPeriod=10), em.Progress(endIter=10000)]
 """
-from . import checkpoint
+from . import checkpoint, parallel
 from .checkpoint import Checkpoint
 from .contact import BodyContact
 from .dem import DemMpmPair, calibrate as calibrateDem, uniaxialTension

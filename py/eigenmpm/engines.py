@@ -14,7 +14,7 @@ import weakref
 import numpy as np
 from yade import O, PyRunner
 
-from . import _eigenmpm
+from . import _eigenmpm, parallel
 from .materials import ElasticMaterial
 from .params import Param, apply, declare, takes, vec3
 
@@ -536,6 +536,8 @@ class MpmEngine(PyRunner):
         if not self._started:
             self._started = True
             self._checkCracks()
+            if parallel.worldSize() > 1 and self.solver.steps == 0:  # mpiexec -n N (doc/parallel.md)
+                self.solver.distribute()
         # O.iter going back behind this solver means the scene was reloaded without its EigenMPM
         # state (eigenmpm.state): stepping on would continue from a later state, silently wrong.
         # (Forward skips happen: YADE resumes an iteration after an engine that raised.)

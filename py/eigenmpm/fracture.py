@@ -5,7 +5,7 @@ import warnings
 import numpy as np
 from yade import O, PyRunner
 
-from . import _eigenmpm
+from . import _eigenmpm, parallel
 from .engines import ENGINE, _register, _Released, findEngine
 from .params import Param, apply, declare
 
@@ -214,7 +214,7 @@ class EigenErosion(PyRunner):
             return []
         window = self.tipWindow if self.tipWindow else 50 * O.dt
         now = mpm.solver.time
-        x = mpm.solver.positions()
+        x = parallel.gather(mpm, mpm.solver.positions())  # (every rank's points, by id)
         origin = self._originPoint(x, events)
         ids = self._mainCrack(x, [p for p, _, _ in events], origin)
         main = set(ids.tolist())
@@ -246,7 +246,7 @@ class EigenErosion(PyRunner):
         events = self.core.events() if self.core else []
         if not events:
             return 0.0
-        x = mpm.solver.positions()
+        x = parallel.gather(mpm, mpm.solver.positions())  # (every rank's points, by id)
         origin = self._originPoint(x, events)
         ids = self._mainCrack(x, [p for p, _, _ in events], origin)
         return float(np.sqrt(np.max(np.sum((x[ids] - origin) ** 2, axis=1))))

@@ -1,0 +1,61 @@
+"""One scene over several processes (doc/parallel.md).
+
+``mpiexec -n N yade -n -x script.py`` runs the same script on N processes (ranks). Every rank
+builds the whole scene; at its first step each MpmEngine keeps the points of its rank's strips
+of the grid and exchanges the shared node planes, the migrating points and erosion's
+neighbours with the ranks beside it (pkg/Distribution.hpp). The results are bitwise those of one
+process. Nothing is added to the script: an engine distributes itself when the process was
+started by mpiexec (or srun) with more than one rank.
+
+The diagnostics of an engine (energies, momenta, reactions, eroded counts) are sums over the
+ranks: every rank must call them, as every rank runs the same script. Arrays of points
+(``solver.positions()``, ...) hold this rank's points only; ``solver.globalIds()`` names them
+by their index in the one-process scene, and ``gather`` collects such arrays on every rank.
+"""
+import os
+
+import numpy as np
+
+# Launchers' variables for the number of processes and this process's rank: Open MPI's mpiexec,
+# then MPICH/Hydra and Slurm's srun (PMI).
+_SIZE = ("OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "SLURM_NTASKS")
+_RANK = ("OMPI_COMM_WORLD_RANK", "PMI_RANK", "SLURM_PROCID")
+
+
+def _env(names, default):
+    for n in names:
+        if n in os.environ:
+            return int(os.environ[n])
+    return default
+
+
+def worldSize():
+    """Number of processes the launcher started (1 without mpiexec)."""
+    return _env(_SIZE, 1)
+
+
+def rank():
+    """This process's rank (0 without mpiexec)."""
+    return _env(_RANK, 0)
+
+
+def isRoot():
+    """Whether this process is rank 0: the one that writes the summary files and plots."""
+    return rank() == 0
+
+
+def gather(engine, array):
+    """The per-point `array` of this rank's points of `engine` (an MpmEngine), collected from
+    every rank and ordered by the points' ids in the one-process scene; on one process, the array
+    itself. Every rank must call it."""
+    array = np.asarray(array)
+    solver = engine.solver
+    if solver.ranks == 1:
+        return array
+    from mpi4py import MPI
+    comm = MPI.COMM_WORLD
+    ids = np.concatenate(comm.allgather(solver.globalIds()))
+    values = np.concatenate(comm.allgather(array))
+    out = np.empty_like(values)
+    out[ids] = values
+    return out
