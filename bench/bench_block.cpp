@@ -28,6 +28,10 @@
 // Memory per point: run one case, one size and one thread count per process, e.g.
 //   bench_block --cases gimp2 --sizes 1e6 --threads 1 --steps 5
 // (a later scene in one process reuses the pages an earlier one freed).
+// --mpi distributes the block over the ranks of mpiexec (doc/parallel.md; needs --steps):
+//   mpiexec -n 2 bench_block --mpi --cases gimp2 --sizes 1e6 --threads 1 --steps 20
+// Then rank 0 prints the whole scene's rate (its points over the slowest rank's time) and the
+// bytes each rank sent per step (the most of any rank); no checksum.
 #include <chrono>
 #include <cinttypes>
 #include <cmath>
@@ -42,6 +46,7 @@
 #include <vector>
 
 #include "Laws.hpp"
+#include "MpiTransport.hpp"
 #include "Solver.hpp"
 
 namespace {
@@ -57,7 +62,41 @@ struct Options {
     double amp = 0.01;  ///< velocity amplitude / wave speed (about the strain amplitude)
     emp::Transfer transfer = emp::Transfer::flip;
     emp::StressUpdate stressUpdate = emp::StressUpdate::smallStrain;
+    bool mpi = false;
 };
+
+/// The MPI transport, counting the bytes this rank sends (exchanges, reductions, gathers).
+class CountingTransport : public emp::MpiTransport {
+public:
+    double sent = 0;
+    void exchange(const std::vector<char>& toLeft, const std::vector<char>& toRight, std::vector<char>& fromLeft,
+                  std::vector<char>& fromRight) override
+    {
+        sent += static_cast<double>(toLeft.size() + toRight.size());
+        MpiTransport::exchange(toLeft, toRight, fromLeft, fromRight);
+    }
+    void sum(double* v, int n) override
+    {
+        sent += 8.0 * n;
+        MpiTransport::sum(v, n);
+    }
+    void max(double* v, int n) override
+    {
+        sent += 8.0 * n;
+        MpiTransport::max(v, n);
+    }
+    std::vector<std::vector<char>> allGather(const std::vector<char>& mine) override
+    {
+        sent += static_cast<double>(mine.size());
+        return MpiTransport::allGather(mine);
+    }
+};
+
+CountingTransport* mpiTransport()
+{
+    static auto t = std::make_shared<CountingTransport>();
+    return t.get();
+}
 
 struct Result {
     std::string caseName;
@@ -68,6 +107,8 @@ struct Result {
     double bytesPerPoint = 0;  ///< resident set added by the scene (after its steps) per point
     std::uint64_t checksum = 0;
     bool checked = false, deterministic = true;
+    int ranks = 1;
+    double bytesSentPerStep = 0;  ///< --mpi: the most any rank sent per step
 };
 
 template <class T> std::vector<T> splitList(const std::string& s)
@@ -116,6 +157,7 @@ Options parse(int argc, char** argv)
         else if (a == "--amp") o.amp = std::stod(next());
         else if (a == "--cases") o.cases = splitNames(next());
         else if (a == "--size3d") o.size3d = std::stod(next());
+        else if (a == "--mpi") o.mpi = true;
         else if (a == "--transfer") {
             o.transfer = emp::transferOf(next());
             if (o.transfer == emp::Transfer::unset) usage("--transfer takes FLIP or APIC");
@@ -134,6 +176,7 @@ Options parse(int argc, char** argv)
     if (o.sizes.empty() || o.threads.empty() || o.cases.empty()) usage("empty list");
     for (int t : o.threads)
         if (t < 1) usage("thread counts must be >= 1");
+    if (o.mpi && o.steps <= 0) usage("--mpi needs --steps N (every rank steps the same number of times)");
     return o;
 }
 
@@ -239,12 +282,13 @@ Result runOnce(const std::string& name, const std::array<int, D>& n, int threads
     const double rss0 = statusBytes("VmRSS:");
     auto solver = makeBlock<D, K>(n, o.amp, o);
     const double dt = 0.5 * solver.criticalTimeStep();
+    if (o.mpi) solver.distribute(std::shared_ptr<emp::Transport>(std::shared_ptr<void>(), mpiTransport()));
     for (int i = 0; i < o.warmup; ++i) solver.step(dt, threads);
     Result r;
     r.caseName = name;
     r.points = static_cast<long>(solver.points().size());
     r.threads = threads;
-    double wall = 0, cpu = 0;
+    double wall = 0, cpu = 0, sent0 = o.mpi ? mpiTransport()->sent : 0;
     long steps = 0;
     while (o.steps > 0 ? steps < o.steps : (wall < o.minTime || steps < minSteps)) {
         const auto t0 = Clock::now();
@@ -256,6 +300,19 @@ Result runOnce(const std::string& name, const std::array<int, D>& n, int threads
         if (checkAt > 0 && steps == checkAt) r.checksum = checksum(solver.points());
     }
     if (checkAt <= 0) r.checksum = checksum(solver.points());
+    if (o.mpi) {  // the whole scene: all ranks' points over the slowest rank's time
+        double sums[1] = {static_cast<double>(solver.points().size())};
+        double maxes[3] = {wall, cpu, (mpiTransport()->sent - sent0) / steps};
+        emp::MpiTransport& t = *mpiTransport();
+        t.emp::MpiTransport::sum(sums, 1);
+        t.emp::MpiTransport::max(maxes, 3);
+        r.points = static_cast<long>(sums[0]);
+        wall = maxes[0];
+        cpu = maxes[1];
+        r.bytesSentPerStep = maxes[2];
+        r.ranks = t.size();
+        r.checksum = 0;
+    }
     r.steps = steps;
     r.wall = wall;
     r.cpu = cpu;
@@ -286,7 +343,7 @@ void runCase(const std::string& name, double size, const Options& o, std::vector
             firstPps = r.pps;
             firstSum = r.checksum;
         } else {
-            r.checked = true;
+            r.checked = !o.mpi;
             r.deterministic = r.checksum == firstSum;
         }
         r.ratio = r.pps / firstPps;
@@ -302,6 +359,7 @@ void runCase(const std::string& name, double size, const Options& o, std::vector
 int main(int argc, char** argv)
 {
     const Options o = parse(argc, argv);
+    if (o.mpi && mpiTransport()->rank() != 0 && !std::freopen("/dev/null", "w", stdout)) return 1;  // rank 0 reports
     std::vector<Result> results;
     try {
         for (const auto& c : o.cases) {
@@ -338,9 +396,9 @@ int main(int argc, char** argv)
     for (const auto& r : results)
         std::printf("JSON {\"case\": \"%s\", \"points\": %ld, \"threads\": %d, \"steps\": %ld, \"wall_time_s\": %.4f, \"cpu_time_s\": %.4f, "
                     "\"particle_steps_per_s\": %.6g, \"ratio_to_first_thread_count\": %.4f, \"resident_bytes_per_point\": %.1f, "
-                    "\"checksum\": \"%016" PRIx64 "\", \"bitwise_equal_to_first\": %s}\n",
+                    "\"checksum\": \"%016" PRIx64 "\", \"bitwise_equal_to_first\": %s, \"ranks\": %d, \"bytes_sent_per_step\": %.0f}\n",
                     r.caseName.c_str(), r.points, r.threads, r.steps, r.wall, r.cpu, r.pps, r.ratio, r.bytesPerPoint, r.checksum,
-                    r.checked ? (r.deterministic ? "true" : "false") : "null");
+                    r.checked ? (r.deterministic ? "true" : "false") : "null", r.ranks, r.bytesSentPerStep);
     if (!allSame) {
         std::fprintf(stderr, "bench_block: results differ between thread counts (determinism broken)\n");
         return 3;
