@@ -32,6 +32,9 @@ StateHeader readStateHeader(std::istream& is)
 
 template <int D, class K> void Solver<D, K>::saveState(std::ostream& os) const
 {
+    if (dist_)
+        throw SimulationError("EigenMPM: cannot save the state of a distributed run yet (doc/parallel.md, "
+                              "Limits); run on one process to save or checkpoint");
     for (std::size_t i = 0; i < conditions_.size(); ++i)
         if (!std::dynamic_pointer_cast<VelocityCondition<D>>(conditions_[i]))
             throw SimulationError("EigenMPM: cannot save the state: grid condition " + std::to_string(i) +
@@ -77,6 +80,7 @@ template <int D, class K> void Solver<D, K>::saveState(std::ostream& os) const
 
     w.string("points");
     const_cast<MaterialPoints<D>&>(points_).forEachArray([&](const char* name, const auto& a) {
+        if (std::string(name) == "globalId") return;  // (a distributed run is not saved yet)
         w.string(name);
         w.array(a);
     });
@@ -185,6 +189,7 @@ template <int D, class K> std::shared_ptr<Solver<D, K>> Solver<D, K>::loadState(
     s->points_.forEachArray([&](const char* name, auto& a) {
         if (h.version < 2 && s->points_.expectedLength(name) == 0) return;  // (optional arrays came with 2)
         if (h.version < 4 && std::string(name) == "body") return;          // (and the bodies with 4)
+        if (std::string(name) == "globalId") return;                        // (never saved)
         r.expect(name);
         r.array(a);
         if (a.size() != s->points_.expectedLength(name))

@@ -9,6 +9,7 @@
 #include <cstring>
 #include <functional>
 #include <memory>
+#include <sstream>
 
 #include "../cpp/test_helpers.hpp"
 #include "MpiTransport.hpp"
@@ -198,6 +199,14 @@ TEST(Distribution, RefusesWhatItDoesNotHave)
     crackedPlate(s, false);
     s.addCrack({Eigen::Vector3d(0, 0.012, 0), Eigen::Vector3d(0.01, 0.012, 0)});
     EXPECT_THROW(s.distribute(transport()), emp::ParameterError);
+    // Saving a distributed run is not done yet: refused, not written wrongly.
+    emp::Solver<2, emp::GimpKernel> d(emptest::typicalSettings(1e-3));
+    crackedPlate(d, true);
+    d.distribute(transport());
+    d.step(0.5 * d.criticalTimeStep(), 1);
+    std::ostringstream os;
+    EXPECT_THROW(d.saveState(os), emp::SimulationError);
+    EXPECT_THROW(d.addCrack({Eigen::Vector3d(0, 0.012, 0), Eigen::Vector3d(0.01, 0.012, 0)}), emp::ParameterError);
 }
 
 }  // namespace
