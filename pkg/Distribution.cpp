@@ -90,9 +90,14 @@ std::vector<char> Distribution<D>::planes(const Grid<D>& g, int lo, int hi, cons
 {
     const int stride = g.stride[D - 1];
     Bytes b;
-    for (const NodeField& f : fields)
-        for (int I = lo * stride; I < hi * stride; ++I)
-            for (int c = 0; c < f.width; ++c) b.put(f.data[static_cast<std::size_t>(I) * f.width + c]);
+    const auto put = [&](const NodeField& f, int I) {
+        for (int c = 0; c < f.width; ++c) b.put(f.data[static_cast<std::size_t>(I) * f.width + c]);
+    };
+    for (const NodeField& f : fields) {
+        for (int I = lo * stride; I < hi * stride; ++I) put(f, I);
+        if (phantom_)
+            for (int I = lo * stride; I < hi * stride; ++I) phantom_->forEachTwin(I, [&](int t) { put(f, t); });
+    }
     return b.data;
 }
 
@@ -103,9 +108,14 @@ void Distribution<D>::setPlanes(const Grid<D>& g, int lo, const std::vector<char
     const int stride = g.stride[D - 1];
     Bytes b;
     b.data = bytes;
-    for (const NodeField& f : fields)
-        for (int I = lo * stride; I < (lo + S_ - 1) * stride; ++I)
-            for (int c = 0; c < f.width; ++c) f.data[static_cast<std::size_t>(I) * f.width + c] = b.get<double>();
+    const auto get = [&](const NodeField& f, int I) {
+        for (int c = 0; c < f.width; ++c) f.data[static_cast<std::size_t>(I) * f.width + c] = b.get<double>();
+    };
+    for (const NodeField& f : fields) {
+        for (int I = lo * stride; I < (lo + S_ - 1) * stride; ++I) get(f, I);
+        if (phantom_)
+            for (int I = lo * stride; I < (lo + S_ - 1) * stride; ++I) phantom_->forEachTwin(I, [&](int t) { get(f, t); });
+    }
 }
 
 template <int D> void Distribution<D>::afterFirstColour(const Grid<D>& g, const std::vector<NodeField>& fields)
@@ -205,6 +215,47 @@ void Distribution<D>::ghosts(const MaterialPoints<D>& P, const Grid<D>& g, doubl
         out.history.push_back(q.history);
         out.damage.push_back(q.damage);
     }
+}
+
+template <int D>
+template <class F>
+void Distribution<D>::forEachInBox(const Grid<D>& g, const int* lo, const int* hi, F&& f) const
+{
+    // Regular nodes of the box, x fastest, each followed by its twins.
+    int i[3] = {0, 0, 0};
+    for (i[2] = D == 3 ? lo[2] : 0; i[2] <= (D == 3 ? hi[2] : 0); ++i[2])
+        for (i[1] = lo[1]; i[1] <= hi[1]; ++i[1])
+            for (i[0] = lo[0]; i[0] <= hi[0]; ++i[0]) {
+                int I = 0;
+                for (int d = 0; d < D; ++d) I += i[d] * g.stride[d];
+                f(I, i[D - 1], false);
+                if (phantom_) phantom_->forEachTwin(I, [&](int t) { f(t, i[D - 1], true); });
+            }
+}
+
+template <int D> void Distribution<D>::shareBox(Grid<D>& g, const int* lo, const int* hi)
+{
+    std::vector<double> v;
+    forEachInBox(g, lo, hi, [&](int I, int plane, bool) {
+        const bool mine = plane >= ownedLo_ && plane < ownedHi_;
+        v.push_back(mine ? g.mass[I] : 0.0);
+        for (int d = 0; d < D; ++d) v.push_back(mine ? g.momentum[I][d] : 0.0);
+    });
+    t_->sum(v.data(), static_cast<int>(v.size()));  // one rank owns each plane: x + 0 is x, exactly
+    std::size_t k = 0;
+    forEachInBox(g, lo, hi, [&](int I, int, bool) {
+        g.mass[I] = v[k++];
+        for (int d = 0; d < D; ++d) g.momentum[I][d] = v[k++];
+    });
+}
+
+template <int D> void Distribution<D>::restoreBox(Grid<D>& g, const int* lo, const int* hi)
+{
+    forEachInBox(g, lo, hi, [&](int I, int plane, bool) {
+        if (plane >= planeLo_ && plane < planeHi_) return;
+        g.mass[I] = 0;
+        g.momentum[I].setZero();
+    });
 }
 
 template <int D> int Distribution<D>::localIndex(const MaterialPoints<D>& P, int id) const

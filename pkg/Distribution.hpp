@@ -34,6 +34,7 @@
 #include "Errors.hpp"
 #include "Grid.hpp"
 #include "MaterialPoints.hpp"
+#include "PhantomNodes.hpp"
 
 namespace emp {
 
@@ -154,6 +155,16 @@ public:
     /// Index of the point of globalId `id` among this rank's points, or -1.
     int localIndex(const MaterialPoints<D>& P, int id) const;
 
+    /// The phantom twins of the pre-existing cracks (the same on every rank: they follow from the
+    /// crack geometry): a shared plane carries its nodes' twins too.
+    void setPhantomNodes(const PhantomNodes<D>* ph) { phantom_ = ph; }
+    /// Makes the nodal mass and momentum of the regular nodes in the box [lo, hi] (node indices
+    /// per direction) and of their twins those of the ranks that own them, on every rank (crack
+    /// transport reads them there). Nodes outside this rank's planes are written; restore()
+    /// sets them back to zero.
+    void shareBox(Grid<D>& g, const int* lo, const int* hi);
+    void restoreBox(Grid<D>& g, const int* lo, const int* hi);
+
 private:
     std::vector<char> planes(const Grid<D>& g, int lo, int hi, const std::vector<NodeField>& fields) const;
     void setPlanes(const Grid<D>& g, int lo, const std::vector<char>& bytes, const std::vector<NodeField>& fields) const;
@@ -161,7 +172,9 @@ private:
     /// Whether this rank writes first at its boundary with the right (+1) or left (-1) neighbour.
     bool writesFirst(int side) const;
 
+    template <class F> void forEachInBox(const Grid<D>& g, const int* lo, const int* hi, F&& f) const;
     std::shared_ptr<Transport> t_;
+    const PhantomNodes<D>* phantom_ = nullptr;
     int rank_ = 0, size_ = 1;
     std::vector<int> first_;  ///< first strip of every rank, and the number of strips at the end
     int planeLo_ = 0, planeHi_ = 0, ownedLo_ = 0, ownedHi_ = 0, leftShared_ = 0, rightShared_ = 0;

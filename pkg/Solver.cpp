@@ -115,6 +115,7 @@ template <int D, class K> template <class F> void Solver<D, K>::forEachWorkNode(
     }
     const int stride = grid_.stride[D - 1];
     Scheduler<D>::forEachNodeIn(dist_->planeLo() * stride, dist_->planeHi() * stride, nThreads, f);
+    Scheduler<D>::forEachNodeIn(grid_.numNodes(), grid_.totalNodes(), nThreads, f);  // the cracks' twins
 }
 
 template <int D, class K> void Solver<D, K>::ownedNodes(int& lo, int& hi) const
@@ -129,7 +130,7 @@ template <int D, class K> void Solver<D, K>::ownedNodes(int& lo, int& hi) const
 template <int D, class K>
 void Solver<D, K>::addNodeForce(int I, const Vec<D>& f, std::int64_t key0, std::int64_t key1)
 {
-    const int side = dist_ ? dist_->sharedSide(I / grid_.stride[D - 1]) : 0;
+    const int side = !dist_ ? 0 : dist_->sharedSide((I < grid_.numNodes() ? I : twinRegular_[I - grid_.numNodes()]) / grid_.stride[D - 1]);
     if (side == 0) {
         grid_.force[I] += f;
         return;
@@ -177,6 +178,10 @@ template <int D, class K> void Solver<D, K>::markCrackedNodes()
     g.setTwins(phantom_.update(g, K::crackRings));
     mapping_ = 1;
     markedBox();
+    if (dist_) {  // the regular node of each twin (a shared plane's serial contributions)
+        twinRegular_.assign(phantom_.numTwins(), -1);
+        for (int I : phantom_.markedNodes()) phantom_.forEachTwin(I, [&](int t) { twinRegular_[t - g.numNodes()] = I; });
+    }
 }
 
 template <int D, class K> void Solver<D, K>::markedBox()
@@ -511,9 +516,13 @@ template <int D, class K> void Solver<D, K>::accumulateExternalWork(double dt)
     const Vec<D> gravity = settings_.gravity.head<D>();
     int lo, hi;
     ownedNodes(lo, hi);
-    if (!gravity.isZero(0.0))
-        for (int I = lo; I < hi; ++I)
-            gravityWork_ += dt * g.mass[I] * gravity.dot(g.velocity[I] - 0.5 * dt * g.force[I]);
+    const auto gravityOn = [&](int I) { gravityWork_ += dt * g.mass[I] * gravity.dot(g.velocity[I] - 0.5 * dt * g.force[I]); };
+    if (!gravity.isZero(0.0)) {
+        for (int I = lo; I < hi; ++I) gravityOn(I);
+        if (dist_)  // the twins of the owned nodes
+            for (int t = g.numNodes(); t < g.totalNodes(); ++t)
+                if (twinRegular_[t - g.numNodes()] >= lo && twinRegular_[t - g.numNodes()] < hi) gravityOn(t);
+    }
 }
 
 template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThreads)
@@ -649,7 +658,28 @@ template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThre
 
 template <int D, class K> void Solver<D, K>::transportCracks(double dt)
 {
-    if (!phantom_.empty()) emp::transportCracks<D, K>(phantom_, grid_, lp_, dt);
+    if (phantom_.empty()) return;
+    if (!dist_) {
+        emp::transportCracks<D, K>(phantom_, grid_, lp_, dt);
+        return;
+    }
+    // Every rank moves the vertices alike: the nodes the transport reads (the marked ones, and
+    // the supports of the vertices) get their owners' values first.
+    int lo[D], hi[D];
+    for (int d = 0; d < D; ++d) {
+        lo[d] = std::min(markedLo_[d], grid_.n[d] - 1);
+        hi[d] = std::max(markedHi_[d], 0);
+    }
+    for (std::size_t c = 0; c < phantom_.numCracks(); ++c)
+        for (const Vec<D>& x : phantom_.vertices(static_cast<int>(c)))
+            for (int d = 0; d < D; ++d) {
+                const int b = K::base((x[d] - grid_.origin[d]) * grid_.invh);
+                lo[d] = std::max(0, std::min(lo[d], b));
+                hi[d] = std::min(grid_.n[d] - 1, std::max(hi[d], b + S - 1));
+            }
+    dist_->shareBox(grid_, lo, hi);
+    emp::transportCracks<D, K>(phantom_, grid_, lp_, dt);
+    dist_->restoreBox(grid_, lo, hi);
 }
 
 // =============================================================================================
@@ -850,12 +880,12 @@ template <int D, class K> void Solver<D, K>::distribute(std::shared_ptr<Transpor
     checkDistributable();
     initialize();
     dist_ = std::make_shared<Distribution<D>>(std::move(transport));
+    dist_->setPhantomNodes(&phantom_);
 }
 
 template <int D, class K> void Solver<D, K>::checkDistributable() const
 {
     const std::string not_ = "; a distributed run (doc/parallel.md) does not have it yet: run on one process";
-    require(phantom_.empty(), "pre-existing cracks", phantom_.numCracks(), "none" + not_);
     require(!points_.bodies, "bodies", "several", "one" + not_);
     require(!contact_, "contact with YADE bodies", "attached", "none" + not_);
     require(!crackContact_, "crack-face contact", "on", "off" + not_);

@@ -115,7 +115,7 @@ public:
     /// before the first step; the first step then keeps this rank's points. The results are
     /// bitwise those of one process; the diagnostics (energies, momenta, reactions, work) are
     /// sums over the ranks, and every rank must call them. Refused (ParameterError) with
-    /// pre-existing cracks, several bodies, contact, conditions other than velocity conditions
+    /// crack-face contact, several bodies, contact, conditions other than velocity conditions
     /// on nodes, or after the first step.
     void distribute(std::shared_ptr<Transport> transport);
     /// The distribution, or nullptr in a single-process run.
@@ -271,6 +271,7 @@ private:
     std::vector<St> stencil_;  ///< stencil_[k] is that of point schedule_.order()[k] in this step
     std::shared_ptr<Distribution<D>> dist_;
     GhostPoints<D> ghosts_;
+    std::vector<int> twinRegular_;  ///< the regular node of each crack twin (distributed)
     std::vector<NodeRecord<D>> recordsLeft_, recordsRight_;
     std::vector<std::vector<std::pair<int, int>>> tractionLocal_;  ///< per traction: (point, position) here
     std::vector<double> workBefore_;  ///< velocity conditions' work before this step (distributed)

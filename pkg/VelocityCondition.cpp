@@ -15,7 +15,7 @@ template <int D> void VelocityCondition<D>::afterNodalVelocity(GridState<D>& s)
     active.erase(std::unique(active.begin(), active.end()), active.end());
     const Eigen::Vector3d vbar = value(s.time);
     auto& g = s.grid;
-    forEachConstrained(s.phantom, [&](int I) {
+    forEachConstrained(s.phantom, [&](int I, int) {
         for (int d = 0; d < D; ++d) {
             if (!(mask & (1u << d))) continue;
             g.momentum[I][d] = g.mass[I] * vbar[d];
@@ -29,11 +29,12 @@ template <int D> void VelocityCondition<D>::afterForces(GridState<D>& s)
     const Eigen::Vector3d vbar = value(s.time);
     auto& g = s.grid;
     reaction.setZero();
-    forEachConstrained(s.phantom, [&](int I) {
+    forEachConstrained(s.phantom, [&](int I, int regular) {
+        const bool owned = regular >= s.ownedLo && regular < s.ownedHi;
         for (int d = 0; d < D; ++d) {
             if (!(mask & (1u << d))) continue;
             const double applied = (g.mass[I] * vbar[d] - g.momentum[I][d]) / s.dt;
-            if (I >= s.ownedLo && I < s.ownedHi) reaction[d] += applied - g.force[I][d];
+            if (owned) reaction[d] += applied - g.force[I][d];
             g.force[I][d] = applied;
         }
     });

@@ -37,9 +37,9 @@ public:
 private:
     template <class F> void forEachConstrained(const PhantomNodes<D>& ph, F&& f) const
     {
-        for (int I : active) {
-            f(I);
-            ph.forEachTwin(I, f);
+        for (int I : active) {  // f(node, its regular node): a twin is where its node is
+            f(I, I);
+            ph.forEachTwin(I, [&](int t) { f(t, I); });
         }
     }
 };

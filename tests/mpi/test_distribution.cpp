@@ -98,7 +98,7 @@ Outcome compare(const emp::SolverSettings& settings, const Build<D, K>& build, i
 
 /// A plate (cells along y more than the ranks need) loaded by tractions on its top and bottom
 /// rows, its left edge on rollers, with erosion: a crack runs from a notch.
-template <class K> void crackedPlate(emp::Solver<2, K>& s, bool erosion)
+template <class K> void crackedPlate(emp::Solver<2, K>& s, bool erosion, bool phantom = false)
 {
     const double h = s.settings().h;
     const int glass = s.addMaterial(72e9, 0.22, 2440, true, emp::lawIndex("spectral"));
@@ -110,7 +110,7 @@ template <class K> void crackedPlate(emp::Solver<2, K>& s, bool erosion)
         for (int i = 0; i < nx * s.settings().ppc; ++i) {
             const Vec<2> x((i + 0.5) * dx, (j + 0.5) * dx);
             // a notch from the left edge to a third of the plate, one cell high, at mid-height
-            if (x[0] < nx * h / 3 && std::abs(x[1] - ny * h / 2) < 0.5 * h) continue;
+            if (!phantom && x[0] < nx * h / 3 && std::abs(x[1] - ny * h / 2) < 0.5 * h) continue;
             const int id = s.addPoint(to3<2>(x), Eigen::Vector3d::Zero(), dx * dx * h, glass);
             if (x[1] > (ny - 1) * h) top.push_back(id);
             if (x[1] < h) bottom.push_back(id);
@@ -123,6 +123,8 @@ template <class K> void crackedPlate(emp::Solver<2, K>& s, bool erosion)
         if (s.grid().nodePosition(I)[0] <= 0) left.push_back(I);
     s.addVelocityCondition(left, {}, 1u, Eigen::Vector3d::Zero(), 0);
     if (erosion) s.setErosion(std::make_shared<emp::EigenErosion<2>>(emp::ErosionSettings{30.0, 2.0, 1.1 * h}));
+    // or a sharp pre-crack by phantom nodes there, slightly off the points' rows
+    if (phantom) s.addCrack({Eigen::Vector3d(-h, 0.5 * ny * h + 0.1 * h, 0), Eigen::Vector3d(nx * h / 3, 0.5 * ny * h + 0.1 * h, 0)});
 }
 
 TEST(Distribution, CrackedPlateErodesBitwiseAsOnOneProcess)
@@ -193,11 +195,27 @@ TEST(Distribution, LinearShapeFunction)
     EXPECT_EQ(o.differing, 0);
 }
 
+TEST(Distribution, PhantomCrackAcrossRanksGrowsBitwiseAsOnOneProcess)
+{
+    // The pre-crack lies at mid-height, where two ranks meet: its twins are in the shared planes.
+    for (int shape = 0; shape < 2; ++shape) {
+        const auto settings = emptest::typicalSettings(1e-3);
+        const auto o = shape == 0 ? compare<2, emp::GimpKernel>(settings, [](auto& s) { crackedPlate(s, true, true); }, 300, 0.5)
+                                  : compare<2, emp::LinearKernel>(settings, [](auto& s) { crackedPlate(s, true, true); }, 300, 0.5);
+        EXPECT_EQ(o.differing, 0);
+    }
+    emp::Solver<2, emp::GimpKernel> one(emptest::typicalSettings(1e-3));
+    crackedPlate(one, true, true);
+    const double dt = 0.5 * one.criticalTimeStep();
+    for (int n = 0; n < 300; ++n) one.step(dt, 1);
+    EXPECT_GT(one.erosion()->erodedCount(), 20u);  // the crack grows from the phantom crack's tip
+}
+
 TEST(Distribution, RefusesWhatItDoesNotHave)
 {
     emp::Solver<2, emp::GimpKernel> s(emptest::typicalSettings(1e-3));
     crackedPlate(s, false);
-    s.addCrack({Eigen::Vector3d(0, 0.012, 0), Eigen::Vector3d(0.01, 0.012, 0)});
+    s.setCrackContact(true, 0.0);
     EXPECT_THROW(s.distribute(transport()), emp::ParameterError);
     // Saving a distributed run is not done yet: refused, not written wrongly.
     emp::Solver<2, emp::GimpKernel> d(emptest::typicalSettings(1e-3));
@@ -207,6 +225,8 @@ TEST(Distribution, RefusesWhatItDoesNotHave)
     std::ostringstream os;
     EXPECT_THROW(d.saveState(os), emp::SimulationError);
     EXPECT_THROW(d.addCrack({Eigen::Vector3d(0, 0.012, 0), Eigen::Vector3d(0.01, 0.012, 0)}), emp::ParameterError);
+    d.setCrackContact(true, 0.0);
+    EXPECT_THROW(d.step(0.5 * d.criticalTimeStep(), 1), emp::ParameterError);
 }
 
 }  // namespace
