@@ -1,7 +1,9 @@
 """The same YADE script on one process and under mpiexec (doc/parallel.md): a notched plate
-with tractions, a roller edge and eigenerosion (tests/python/mpi/notched_plate.py). Every point
-must end bitwise where it ends on one process, the eroded points and the dissipated energy must
-be the same, and the sums over the ranks (energies, work, reaction) equal to round-off."""
+with tractions, a roller edge and eigenerosion (tests/python/mpi/notched_plate.py), and the quick
+crack-branching plate of examples/crack_branching.py with its phantom pre-crack
+(tests/python/mpi/branching_plate.py). Every point must end bitwise where it ends on one process,
+the eroded points, the dissipated energy and the crack diagnostics must be the same, and the sums
+over the ranks (energies, work, reaction) equal to round-off."""
 import json
 import os
 import subprocess
@@ -10,8 +12,7 @@ import numpy as np
 import pytest
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-SCRIPT = os.path.join(ROOT, "tests", "python", "mpi", "notched_plate.py")
-STEPS = "300"
+SCRIPTS = {"notched_plate": "300", "branching_plate": "1000"}  # script: steps
 
 
 def _env():
@@ -24,8 +25,9 @@ def _env():
     return env
 
 
-def _run(out, ranks):
-    cmd = ["yade", "-n", "-j1", "-x", SCRIPT, str(out), STEPS]
+def _run(out, script, ranks):
+    cmd = ["yade", "-n", "-j1", "-x", os.path.join(ROOT, "tests", "python", "mpi", script + ".py"), str(out),
+           SCRIPTS[script]]
     if ranks:
         cmd = ["mpiexec", "--oversubscribe", "-n", str(ranks)] + cmd
     res = subprocess.run(cmd, env=_env(), capture_output=True, text=True, timeout=600, stdin=subprocess.DEVNULL)
@@ -42,15 +44,20 @@ def _run(out, ranks):
     return summary, arrays, ids
 
 
-@pytest.fixture(scope="module")
-def single(tmp_path_factory):
-    return _run(tmp_path_factory.mktemp("one"), 0)
+_single = {}
 
 
+def single(script, tmp_path_factory):
+    if script not in _single:
+        _single[script] = _run(tmp_path_factory.mktemp(script), script, 0)
+    return _single[script]
+
+
+@pytest.mark.parametrize("script", sorted(SCRIPTS))
 @pytest.mark.parametrize("ranks", [2, 3])
-def test_mpiexec_runs_the_script_bitwise_as_one_process(single, tmp_path, ranks):
-    one, ref, refIds = single
-    summary, arrays, ids = _run(tmp_path, ranks)
+def test_mpiexec_runs_the_script_bitwise_as_one_process(tmp_path_factory, tmp_path, script, ranks):
+    one, ref, refIds = single(script, tmp_path_factory)
+    summary, arrays, ids = _run(tmp_path, script, ranks)
     assert summary["ranks"] == ranks
     assert sorted(ids.tolist()) == list(range(len(refIds)))  # every point on exactly one rank
     assert one["eroded"] > 50  # the plate cracks: the erosion exchange is exercised
@@ -60,6 +67,8 @@ def test_mpiexec_runs_the_script_bitwise_as_one_process(single, tmp_path, ranks)
     assert summary["dissipated"] == one["dissipated"]
     assert summary["front"] == one["front"]
     assert summary["x"] == one["x"]
+    for key in ("tips", "initiation", "branching"):
+        assert summary.get(key) == one.get(key), key
     for key in ("kinetic", "elastic", "work"):
         assert summary[key] == pytest.approx(one[key], rel=1e-12)
     assert summary["reaction"] == pytest.approx(one["reaction"], rel=1e-12)
