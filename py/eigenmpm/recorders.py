@@ -6,6 +6,7 @@ import time
 import numpy as np
 from yade import O, PyRunner
 
+from . import parallel
 from .engines import ENGINE, _register, findEngine
 from .params import Param, apply, declare
 
@@ -32,6 +33,10 @@ class VTKRecorder(PyRunner):
     virtPeriod, one of them > 0); :meth:`finalRecord` adds the state at the end of a run when the
     last step was not recorded. When the solver stops on an error, the state at that moment is
     written as ``<fileName>failure.vtp``.
+
+    Under mpiexec (doc/parallel.md) every rank writes its points as ``<fileName><iter>-r<rank>.vtp``
+    and rank 0 a parallel file ``<fileName><iter>.pvtp`` naming the pieces, which the collection
+    lists: ParaView opens the whole scene.
 
     Example::
 
@@ -87,6 +92,8 @@ class VTKRecorder(PyRunner):
         x = s.positions()
         n = len(x)
         x0 = mpm.referencePositions
+        if s.ranks > 1:  # this rank's points, by their index in the whole scene
+            x0 = x0[s.globalIds()]
         if len(x0) != n:
             raise RuntimeError(f"EigenMPM: {n} points in the solver, {len(x0)} added through "
                                "MpmEngine.addPoints or fill; add points only through these")
@@ -124,7 +131,7 @@ class VTKRecorder(PyRunner):
             a.SetName(name)
             poly.GetPointData().AddArray(a)
         tag = suffix if suffix else f"{O.iter:08d}"
-        path = f"{self.fileName}{tag}.vtp"
+        path = f"{self.fileName}{tag}.vtp" if s.ranks == 1 else f"{self.fileName}{tag}-r{s.rank}.vtp"
         os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
         w = vtkXMLPolyDataWriter()
         partial = path + ".part"  # renamed when complete: an interrupted write leaves no broken file
@@ -136,10 +143,48 @@ class VTKRecorder(PyRunner):
             raise RuntimeError(f"EigenMPM: could not write {path}")
         os.replace(partial, path)
         self._recordedSteps = s.steps
+        if s.ranks > 1:
+            path = self._writeParallel(s, tag, poly)
+            if not parallel.isRoot():
+                return path
         if index:
             self.files.append((s.time, path))
             self._writeCollection()
         return path
+
+    def _writeParallel(self, s, tag, poly):
+        """Rank 0 writes ``<fileName><tag>.pvtp``, the parallel file of every rank's piece, once
+        all are written. Returns its path."""
+        import xml.etree.ElementTree as ET
+        from mpi4py import MPI
+        from vtkmodules.util.numpy_support import vtk_to_numpy
+        MPI.COMM_WORLD.Barrier()
+        pvtp = f"{self.fileName}{tag}.pvtp"
+        if not parallel.isRoot():
+            return pvtp
+
+        def array(parent, vtkArray, name=None):
+            a = vtk_to_numpy(vtkArray)
+            kind = {"f": "Float", "i": "Int", "u": "UInt"}[a.dtype.kind]
+            e = ET.SubElement(parent, "PDataArray", type=f"{kind}{8 * a.dtype.itemsize}",
+                              NumberOfComponents=str(vtkArray.GetNumberOfComponents()))
+            if name:
+                e.set("Name", name)
+
+        root = ET.Element("VTKFile", type="PPolyData", version="0.1", byte_order="LittleEndian")
+        grid = ET.SubElement(root, "PPolyData", GhostLevel="0")
+        data = ET.SubElement(grid, "PPointData")
+        pd = poly.GetPointData()
+        for k in range(pd.GetNumberOfArrays()):
+            array(data, pd.GetArray(k), pd.GetArrayName(k))
+        array(ET.SubElement(grid, "PPoints"), poly.GetPoints().GetData())
+        for r in range(s.ranks):
+            ET.SubElement(grid, "Piece", Source=os.path.basename(f"{self.fileName}{tag}-r{r}.vtp"))
+        ET.indent(root)
+        partial = pvtp + ".part"
+        ET.ElementTree(root).write(partial, encoding="utf-8", xml_declaration=True)
+        os.replace(partial, pvtp)
+        return pvtp
 
     def _writeCollection(self):
         import xml.etree.ElementTree as ET

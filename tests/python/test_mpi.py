@@ -72,3 +72,33 @@ def test_mpiexec_runs_the_script_bitwise_as_one_process(tmp_path_factory, tmp_pa
     for key in ("kinetic", "elastic", "work"):
         assert summary[key] == pytest.approx(one[key], rel=1e-12)
     assert summary["reaction"] == pytest.approx(one["reaction"], rel=1e-12)
+
+
+def _vtk(path):
+    """Positions and damage of a .vtp or .pvtp file, sorted by position."""
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+    from vtkmodules.vtkIOXML import vtkXMLPolyDataReader, vtkXMLPPolyDataReader
+    reader = vtkXMLPPolyDataReader() if str(path).endswith(".pvtp") else vtkXMLPolyDataReader()
+    reader.SetFileName(str(path))
+    reader.Update()
+    poly = reader.GetOutput()
+    x = vtk_to_numpy(poly.GetPoints().GetData())
+    damage = vtk_to_numpy(poly.GetPointData().GetArray("damage"))
+    order = np.lexsort(x.T[::-1])
+    return x[order], damage[order]
+
+
+@pytest.mark.parametrize("ranks", [2])
+def test_vtk_recorder_writes_a_parallel_file_of_the_whole_scene(tmp_path_factory, tmp_path, ranks):
+    single("notched_plate", tmp_path_factory)
+    _run(tmp_path, "notched_plate", ranks)
+    one = tmp_path_factory.getbasetemp()
+    ref = sorted(one.glob("notched_plate*/vtk/plate-00000300.vtp"))[0]
+    pvtp = tmp_path / "vtk" / "plate-00000300.pvtp"
+    assert pvtp.exists() and (tmp_path / "vtk" / "plate-00000300-r1.vtp").exists()
+    collection = (tmp_path / "vtk" / "plate-series.pvd").read_text()
+    assert "plate-00000300.pvtp" in collection and "-r0.vtp" not in collection
+    x, damage = _vtk(pvtp)
+    xr, damageRef = _vtk(ref)
+    assert np.array_equal(x, xr) and np.array_equal(damage, damageRef)
+    assert damage.max() == 1.0  # eroded points are in it

@@ -1,6 +1,7 @@
 """A notched glass plate under tractions, with eigenerosion, run the same way on one process
 and under mpiexec (tests/python/test_mpi.py): every rank writes its points by id to
-OUT/rank-R.npz and rank 0 the engine's totals to OUT/summary.json.
+OUT/rank-R.npz and rank 0 the engine's totals to OUT/summary.json; a VTKRecorder writes
+OUT/vtk/plate-*.vtp (under mpiexec: a piece per rank and a .pvtp).
 
     [mpiexec -n N] yade -n -x tests/python/mpi/notched_plate.py OUT [steps]
 """
@@ -24,9 +25,11 @@ mpm.traction(points=pack.inAlignedBox((-1, 0.023, -1), (1, 1, 1)), traction=(0, 
 mpm.traction(points=pack.inAlignedBox((-1, -1, -1), (1, 0.001, 1)), traction=(0, -12e6, 0))
 mpm.fix(region=pack.inAlignedBox((-1, -1, -1), (0, 1, 1)), components="x", label="left")
 crack = em.EigenErosion(engine=mpm, Gc=30.0, alpha=2.0, kappaOverH=1.1, origin=(0.008, 0.012, 0))
-O.engines = [mpm, crack]
+vtk = em.VTKRecorder(engine=mpm, fileName=os.path.join(out, "vtk", "plate-"), iterPeriod=150)
+O.engines = [mpm, crack, vtk]
 O.dt = 0.5 * mpm.criticalTimeStep()
 O.run(steps, True)
+vtk.finalRecord()
 s = mpm.solver
 np.savez(os.path.join(out, f"rank-{em.parallel.rank()}.npz"), ids=s.globalIds(), x=s.positions(), v=s.velocities(),
          stress=s.stress(), damage=s.damage())
