@@ -76,7 +76,13 @@ template <int D, class K> void Solver<D, K>::checkTimeStep(double dt)
 
 template <int D, class K> void Solver<D, K>::distributePoints()
 {
-    if (!dist_) return;
+    if (!dist_) {
+        if (points_.distributed)
+            throw ParameterError("EigenMPM: this solver holds rank " + std::to_string(resumeRank_) + "'s part of a run on " +
+                                 std::to_string(resumeRanks_) + " ranks (loaded from its archive); resume it under mpiexec -n " +
+                                 std::to_string(resumeRanks_) + " (doc/parallel.md)");
+        return;
+    }
     checkDistributable();  // (something may have been attached since distribute())
     const auto stripOf = [&](const Vec<D>& x) { return Scheduler<D>::template stripOf<K>(x, grid_); };
     if (!dist_->partitioned()) {
@@ -875,11 +881,19 @@ template <int D, class K> double Solver<D, K>::criticalTimeStep() const
 
 template <int D, class K> void Solver<D, K>::distribute(std::shared_ptr<Transport> transport)
 {
-    require(steps_ == 0 && !dist_, "distribute", "called after the first step or twice",
-            "once, before the first step");
+    require(!dist_ && (steps_ == 0 || points_.distributed), "distribute", "called after the first step or twice",
+            "once, before the first step (or to resume a rank's part loaded from its archive)");
     checkDistributable();
     initialize();
-    dist_ = std::make_shared<Distribution<D>>(std::move(transport));
+    auto d = std::make_shared<Distribution<D>>(std::move(transport));
+    if (points_.distributed) {
+        if (d->size() != resumeRanks_ || d->rank() != resumeRank_)
+            require(false, "number of ranks", d->size(),
+                    std::to_string(resumeRanks_) + ": this is the archive of rank " + std::to_string(resumeRank_) +
+                        " of a run on " + std::to_string(resumeRanks_) + " ranks; resume it with as many");
+        d->setRanges(resumeStrips_, S, grid_.n[D - 1]);
+    }
+    dist_ = d;
     dist_->setPhantomNodes(&phantom_);
 }
 

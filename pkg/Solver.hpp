@@ -116,10 +116,15 @@ public:
     /// bitwise those of one process; the diagnostics (energies, momenta, reactions, work) are
     /// sums over the ranks, and every rank must call them. Refused (ParameterError) with
     /// crack-face contact, several bodies, contact, conditions other than velocity conditions
-    /// on nodes, or after the first step.
+    /// on nodes, or after the first step unless the solver is a rank's part loaded from its
+    /// archive (distributedPart()), which needs the same rank of the same number of ranks.
     void distribute(std::shared_ptr<Transport> transport);
     /// The distribution, or nullptr in a single-process run.
     const Distribution<D>* distribution() const { return dist_.get(); }
+    /// Whether this solver is one rank's part of a distributed run, loaded from its archive and
+    /// not yet distributed again: distribute() with the same number of ranks resumes it, and it
+    /// refuses to step before.
+    bool distributedPart() const { return points_.distributed && !dist_; }
 
     // --- time stepping ------------------------------------------------------------------
     /// APIC: sets point p's affine velocity (its velocity gradient, 1/s) for the next transfer,
@@ -272,6 +277,9 @@ private:
     std::shared_ptr<Distribution<D>> dist_;
     GhostPoints<D> ghosts_;
     std::vector<int> twinRegular_;  ///< the regular node of each crack twin (distributed)
+    /// A rank's part loaded from an archive (loadState): its rank, the ranks and their strips.
+    int resumeRank_ = 0, resumeRanks_ = 1;
+    std::vector<int> resumeStrips_;
     std::vector<NodeRecord<D>> recordsLeft_, recordsRight_;
     std::vector<std::vector<std::pair<int, int>>> tractionLocal_;  ///< per traction: (point, position) here
     std::vector<double> workBefore_;  ///< velocity conditions' work before this step (distributed)

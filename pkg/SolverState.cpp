@@ -10,8 +10,9 @@ namespace emp {
 
 namespace {
 const char* kFormat = "EigenMPM solver state";
-constexpr std::uint32_t kVersion = 4;  // 2: transfer, stress update, energy diagnostics; 3: contact work, crack-face contact;
-                                       // 4: bodies in one grid (point body ids, their friction)
+constexpr std::uint32_t kVersion = 5;  // 2: transfer, stress update, energy diagnostics; 3: contact work, crack-face contact;
+                                       // 4: bodies in one grid (point body ids, their friction); 5: a rank's part
+                                       // of a distributed run (its flag, point ids, the ranks' strips)
 }  // namespace
 
 StateHeader readStateHeader(std::istream& is)
@@ -32,9 +33,6 @@ StateHeader readStateHeader(std::istream& is)
 
 template <int D, class K> void Solver<D, K>::saveState(std::ostream& os) const
 {
-    if (dist_)
-        throw SimulationError("EigenMPM: cannot save the state of a distributed run yet (doc/parallel.md, "
-                              "Limits); run on one process to save or checkpoint");
     for (std::size_t i = 0; i < conditions_.size(); ++i)
         if (!std::dynamic_pointer_cast<VelocityCondition<D>>(conditions_[i]))
             throw SimulationError("EigenMPM: cannot save the state: grid condition " + std::to_string(i) +
@@ -71,6 +69,7 @@ template <int D, class K> void Solver<D, K>::saveState(std::ostream& os) const
     w.value(crackContact_ ? crackContact_->friction : 0.0);
     w.value(points_.bodies);
     w.value(bodyContact_.friction);
+    w.value(points_.distributed);
     w.value(grid_.origin);
     w.value(grid_.n);
 
@@ -80,7 +79,6 @@ template <int D, class K> void Solver<D, K>::saveState(std::ostream& os) const
 
     w.string("points");
     const_cast<MaterialPoints<D>&>(points_).forEachArray([&](const char* name, const auto& a) {
-        if (std::string(name) == "globalId") return;  // (a distributed run is not saved yet)
         w.string(name);
         w.array(a);
     });
@@ -116,6 +114,12 @@ template <int D, class K> void Solver<D, K>::saveState(std::ostream& os) const
         w.value(erosion_->settings());
         erosion_->saveState(w);
     }
+    // A distributed run's archive is one rank's part: which rank, of how many, and the strips
+    // of every rank, so that the same number of ranks resumes it (distribute()).
+    w.string("distribution");
+    w.value(dist_ ? dist_->rank() : 0);
+    w.value(dist_ ? dist_->size() : 1);
+    w.array(dist_ ? dist_->firstStrips() : std::vector<int>{});
     w.string("end");
     if (!os) throw SimulationError("EigenMPM: writing the solver state failed");
 }
@@ -170,6 +174,7 @@ template <int D, class K> std::shared_ptr<Solver<D, K>> Solver<D, K>::loadState(
         s->points_.bodies = r.value<bool>();
         s->bodyContact_.friction = r.value<double>();
     }
+    if (h.version >= 5) s->points_.distributed = r.value<bool>();
     const auto origin = r.value<Vec<D>>();
     const auto n = r.value<std::array<int, D>>();
     if (initialized) {
@@ -189,7 +194,7 @@ template <int D, class K> std::shared_ptr<Solver<D, K>> Solver<D, K>::loadState(
     s->points_.forEachArray([&](const char* name, auto& a) {
         if (h.version < 2 && s->points_.expectedLength(name) == 0) return;  // (optional arrays came with 2)
         if (h.version < 4 && std::string(name) == "body") return;          // (and the bodies with 4)
-        if (std::string(name) == "globalId") return;                        // (never saved)
+        if (h.version < 5 && std::string(name) == "globalId") return;      // (and a rank's part with 5)
         r.expect(name);
         r.array(a);
         if (a.size() != s->points_.expectedLength(name))
@@ -238,6 +243,14 @@ template <int D, class K> std::shared_ptr<Solver<D, K>> Solver<D, K>::loadState(
         auto e = std::make_shared<EigenErosion<D>>(r.value<ErosionSettings>());
         e->loadState(r);
         s->erosion_ = e;
+    }
+    if (h.version >= 5) {
+        r.expect("distribution");
+        s->resumeRank_ = r.value<int>();
+        s->resumeRanks_ = r.value<int>();
+        r.array(s->resumeStrips_);
+        if (s->points_.distributed != (s->resumeRanks_ > 1 || !s->resumeStrips_.empty()))
+            r.fail("a distribution section that does not match its points");
     }
     r.expect("end");
     return s;

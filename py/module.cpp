@@ -652,6 +652,7 @@ template <class Sv> struct Bind {
             .def("distribute", +[](Sv& s) { s.distribute(std::make_shared<emp::MpiTransport>()); })
             .add_property("rank", +[](const Sv& s) { return s.distribution() ? s.distribution()->rank() : 0; })
             .add_property("ranks", +[](const Sv& s) { return s.distribution() ? s.distribution()->size() : 1; })
+            .add_property("distributedPart", &Sv::distributedPart)
             .def("damage", &damage)
             .def("volume", &volume)
             .def("mass", &mass)

@@ -568,6 +568,8 @@ class MpmEngine(PyRunner):
         """After eigenmpm.state restored this engine: materials are keyed by object identity,
         and the objects are new."""
         self._materials = {id(mat): (mat, i) for mat, i in self._materials.values()}
+        if self.solver.distributedPart:  # this rank's part of a run under mpiexec: resume it
+            self.solver.distribute()
 
     # --- diagnostics ----------------------------------------------------------------------
     def kineticEnergy(self):

@@ -30,7 +30,7 @@ import weakref
 import yade.wrapper
 from yade import O, PyRunner
 
-from . import _eigenmpm
+from . import _eigenmpm, parallel
 
 VERSION = 1
 TAG = "eigenmpm"
@@ -251,12 +251,18 @@ def _save(self, fileName, *args, **kw):
     if data is None:
         _tags(self).pop()
         return _original["save"](self, fileName, *args, **kw)
-    side = fileName + SUFFIX
+    # Under mpiexec every rank writes its part beside the scene, and rank 0 the scene; the tag
+    # names the parts with "{rank}" (doc/parallel.md).
+    ranks = parallel.worldSize()
+    part = "" if ranks == 1 else f".r{{rank}}of{ranks}"
+    side = fileName + part.format(rank=parallel.rank()) + SUFFIX
     tmp = side + ".tmp"
     with open(tmp, "wb") as f:
         f.write(data)
     os.replace(tmp, side)
-    _tags(self).set(os.path.basename(side))
+    _tags(self).set(os.path.basename(fileName + part + SUFFIX))
+    if not parallel.isRoot():
+        return None
     return _original["save"](self, fileName, *args, **kw)
 
 
@@ -266,7 +272,7 @@ def _load(self, fileName, *args, **kw):
     if mark is None:
         _refuseOrphans(f"the file {fileName}")
         return result
-    side = os.path.join(os.path.dirname(os.path.abspath(fileName)), mark)
+    side = os.path.join(os.path.dirname(os.path.abspath(fileName)), mark.replace("{rank}", str(parallel.rank())))
     try:
         with open(side, "rb") as f:
             data = f.read()

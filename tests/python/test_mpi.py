@@ -102,3 +102,31 @@ def test_vtk_recorder_writes_a_parallel_file_of_the_whole_scene(tmp_path_factory
     xr, damageRef = _vtk(ref)
     assert np.array_equal(x, xr) and np.array_equal(damage, damageRef)
     assert damage.max() == 1.0  # eroded points are in it
+
+
+@pytest.mark.parametrize("ranks", [2])
+def test_each_rank_saves_its_part_and_the_same_ranks_resume_bitwise(tmp_path, ranks):
+    script = os.path.join(ROOT, "tests", "python", "mpi", "save_resume.py")
+    for phase in ("save", "resume"):
+        cmd = ["mpiexec", "--oversubscribe", "-n", str(ranks), "yade", "-n", "-j1", "-x", script, phase, str(tmp_path), "300"]
+        res = subprocess.run(cmd, env=_env(), capture_output=True, text=True, timeout=600, stdin=subprocess.DEVNULL)
+        assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-3000:]
+    # rank 0 wrote the scene, every rank its part beside it
+    assert (tmp_path / "scene.yade").exists()
+    assert all((tmp_path / f"scene.yade.r{r}of{ranks}.eigenmpm").exists() for r in range(ranks))
+    for r in range(ranks):
+        full, resumed = np.load(tmp_path / f"full-r{r}.npz"), np.load(tmp_path / f"resumed-r{r}.npz")
+        for key in ("ids", "x", "v", "stress", "damage", "eroded"):
+            assert np.array_equal(full[key], resumed[key]), (r, key)
+    assert int(np.load(tmp_path / "full-r0.npz")["eroded"][0]) > 0
+
+
+def test_a_rank_part_is_refused_on_another_number_of_ranks(tmp_path):
+    script = os.path.join(ROOT, "tests", "python", "mpi", "save_resume.py")
+    cmd = ["mpiexec", "--oversubscribe", "-n", "2", "yade", "-n", "-j1", "-x", script, "save", str(tmp_path), "20"]
+    res = subprocess.run(cmd, env=_env(), capture_output=True, text=True, timeout=600, stdin=subprocess.DEVNULL)
+    assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-3000:]
+    cmd = ["mpiexec", "--oversubscribe", "-n", "3", "yade", "-n", "-j1", "-x", script, "resume", str(tmp_path), "20"]
+    res = subprocess.run(cmd, env=_env(), capture_output=True, text=True, timeout=600, stdin=subprocess.DEVNULL)
+    assert res.returncode != 0
+    assert "resume it with as many" in res.stdout + res.stderr or "cannot be read" in res.stdout + res.stderr
