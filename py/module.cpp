@@ -233,7 +233,7 @@ template <int D> struct BindContact {
         // 1. Where each sphere is, and its radius.
         struct Read {
             bp::object id, body, state;
-            bool general;  ///< its shape has no radius (changed since the selection): the general path
+            int sphere;  ///< index in `spheres`; -1: its shape has no radius (changed since the selection)
         };
         std::vector<Read> read;
         std::vector<RigidShape> spheres;
@@ -246,21 +246,19 @@ template <int D> struct BindContact {
             if (!item) bp::throw_error_already_set();
             const bp::object b{bp::handle<>(item)};
             if (b.is_none()) continue;
-            RigidShape sh;
-            sh.kind = RigidShape::sphere;
             PyObject* radius = PyObject_GetAttr(attr(b, kShape).ptr(), kRadius);
             if (!radius) {
                 if (!PyErr_ExceptionMatches(PyExc_AttributeError)) bp::throw_error_already_set();
                 PyErr_Clear();
-                sh.radius = std::numeric_limits<double>::quiet_NaN();  // touches nothing
-                read.push_back(Read{id, b, bp::object(), true});
-                spheres.push_back(sh);
+                read.push_back(Read{id, b, bp::object(), -1});
                 continue;
             }
+            RigidShape sh;
+            sh.kind = RigidShape::sphere;
             sh.radius = bp::extract<double>(bp::object(bp::handle<>(radius)));
             const bp::object st = attr(b, kState);
             sh.a = fastVec3(attr(st, kPos), "position");
-            read.push_back(Read{id, b, st, false});
+            read.push_back(Read{id, b, st, static_cast<int>(spheres.size())});
             spheres.push_back(sh);
         }
         // 2. Which of them touch a point (all of them without a solver that has stepped).
@@ -271,9 +269,8 @@ template <int D> struct BindContact {
         if (pointsOf(solver, points, grid, reach)) c.touching(*grid, *points, reach, spheres, touched);
         // 3. Those as bodies: the free ones here, the others by the general path.
         bp::list added, rest;
-        for (std::size_t k = 0; k < read.size(); ++k) {
-            const auto& [id, b, st, general] = read[k];
-            if (general) {
+        for (const auto& [id, b, st, k] : read) {
+            if (k < 0) {
                 rest.append(id);
                 continue;
             }

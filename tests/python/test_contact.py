@@ -9,7 +9,7 @@ import subprocess
 import numpy as np
 import pytest
 from yade import O, pack, utils
-from yade.wrapper import ForceResetter, FrictMat, NewtonIntegrator
+from yade.wrapper import Box, ForceResetter, FrictMat, NewtonIntegrator
 
 import eigenmpm as em
 
@@ -378,8 +378,8 @@ def spheres_on_a_block(n=24):
 def test_spheres_that_touch_no_point_are_skipped_without_changing_the_results(monkeypatch):
     """Contact.addFreeSpheres reads the velocity, mass and forces only of the spheres that touch
     a point (doc/contact.md, "Cost"): the run is bitwise the one that reads every sphere, also
-    when a script grows a sphere's radius in place, moves one, replaces one at its id, fixes and
-    frees them, or changes a mass between steps."""
+    when a script grows a sphere's radius in place, moves one, gives one a box shape, replaces one
+    at its id, fixes and frees them, or changes a mass between steps."""
     def run(skip):
         mpm, contact, row, far = spheres_on_a_block()
         steel = O.bodies[row[0]].material
@@ -391,6 +391,11 @@ def test_spheres_that_touch_no_point_are_skipped_without_changing_the_results(mo
             if step == 31:
                 # In the step the radius grew, the sphere touched the block and felt its force.
                 assert np.linalg.norm(contact.force(far[2])) > 0 and np.linalg.norm(contact.force(far[4])) > 0
+            if step == 40:  # a shape without a radius now: the general path takes it
+                O.bodies[far[6]].shape = Box(extents=(0.002, 0.001, 0.002))
+                O.bodies[far[6]].state.pos = (0.045, 0.0209, 0)
+            if step == 41:
+                assert np.linalg.norm(contact.force(far[6])) > 0
             if step == 50:
                 O.bodies[row[3]].dynamic = True
                 O.bodies[row[7]].dynamic = False
