@@ -128,10 +128,9 @@ void RigidShape::bounds(V3& lo, V3& hi) const
     }
 }
 
-template <int D> bool BodyContact<D>::cellRange(const GridState<D>& s, const RigidShape& shape, double reach,
+template <int D> bool BodyContact<D>::cellRange(const Grid<D>& g, const RigidShape& shape, double reach,
                                                  int lo[3], int hi[3]) const
 {
-    const auto& g = s.grid;
     V3 a, b;
     shape.bounds(a, b);
     if (D == 2 && (a[2] - reach > 0 || b[2] + reach < 0)) return false;  // the section by z = 0
@@ -146,13 +145,12 @@ template <int D> bool BodyContact<D>::cellRange(const GridState<D>& s, const Rig
     return true;
 }
 
-template <int D> void BodyContact<D>::binPoints(const GridState<D>& s)
+template <int D> void BodyContact<D>::binPoints(const Grid<D>& g, const MaterialPoints<D>& P)
 {
     // The points in the cells of binLo_..binHi_ (the union of the shapes' ranges), by cell
     // (counting sort, in point order within a cell), so that each shape tests only the points
     // near it. The others are rejected by their coordinates first: with few bodies near a large
     // body of points, most points cost two comparisons.
-    const auto& g = s.grid;
     int width[3] = {1, 1, 1}, nc[3] = {1, 1, 1};
     double xlo[3], xhi[3];
     int cells = 1;
@@ -165,12 +163,12 @@ template <int D> void BodyContact<D>::binPoints(const GridState<D>& s)
         xhi[d] = binHi_[d] == nc[d] - 1 ? kInf : g.origin[d] + (binHi_[d] + 2) * g.h;
     }
     cellStart_.assign(cells + 1, 0);
-    const int np = static_cast<int>(s.points.size());
+    const int np = static_cast<int>(P.size());
     // First the points inside the box (no branch per direction, so the loop stays tight), then
     // their cells, counted and placed in point order.
     candidates_.clear();
     for (int p = 0; p < np; ++p) {
-        const auto& x = s.points.x[p];
+        const auto& x = P.x[p];
         bool in = true;
         for (int d = 0; d < D; ++d) in &= (x[d] >= xlo[d]) & (x[d] <= xhi[d]);
         if (in) candidates_.push_back(p);
@@ -178,7 +176,7 @@ template <int D> void BodyContact<D>::binPoints(const GridState<D>& s)
     cellOf_.clear();
     std::size_t kept = 0;
     for (const int p : candidates_) {
-        const auto& x = s.points.x[p];
+        const auto& x = P.x[p];
         int index = 0, stride = 1;
         for (int d = 0; d < D; ++d) {
             const int i = std::clamp(static_cast<int>(std::floor((x[d] - g.origin[d]) * g.invh)), 0, nc[d] - 1);
@@ -200,6 +198,72 @@ template <int D> void BodyContact<D>::binPoints(const GridState<D>& s)
     for (std::size_t k = 0; k < kept; ++k) cellPoints_[fill_[cellOf_[k]]++] = candidates_[k];
 }
 
+template <int D> bool BodyContact<D>::binNear(const Grid<D>& g, const MaterialPoints<D>& P, double reach,
+                                               const std::vector<RigidShape>& list)
+{
+    // The cell range of each shape, and their union: only the points there are binned.
+    ranges_.resize(list.size());
+    bool any = false;
+    for (std::size_t k = 0; k < list.size(); ++k) {
+        Range& r = ranges_[k];
+        r.live = cellRange(g, list[k], reach, r.lo, r.hi);
+        if (!r.live) continue;
+        for (int d = 0; d < 3; ++d) {
+            binLo_[d] = any ? std::min(binLo_[d], r.lo[d]) : r.lo[d];
+            binHi_[d] = any ? std::max(binHi_[d], r.hi[d]) : r.hi[d];
+        }
+        any = true;
+    }
+    if (any) binPoints(g, P);
+    return any;
+}
+
+template <int D>
+template <class F>
+void BodyContact<D>::forEachNear(const std::vector<RigidShape>& list, const MaterialPoints<D>& P, double reach,
+                                  F&& f) const
+{
+    const int w0 = binHi_[0] - binLo_[0] + 1, w1 = binHi_[1] - binLo_[1] + 1;
+    for (int k = 0; k < static_cast<int>(list.size()); ++k) {
+        const RigidShape& shape = list[k];
+        const Range& r = ranges_[k];
+        if (!r.live) continue;
+        // A sphere rejects most points of its cells on the squared distance, before closest()'s
+        // square root and division. The bound is loose by 1e-9 (relative), so that no point
+        // closest() would find within reach (phi < reach, rounded) is rejected.
+        const bool sphere = shape.kind == RigidShape::sphere;
+        const double lim = (shape.radius + reach) * (1 + 1e-9), lim2 = lim * lim;
+        bool more = true;
+        for (int k2 = r.lo[2]; more && k2 <= r.hi[2]; ++k2)
+            for (int j = r.lo[1]; more && j <= r.hi[1]; ++j)
+                for (int i = r.lo[0]; more && i <= r.hi[0]; ++i) {
+                    const int cell = (i - binLo_[0]) + w0 * ((j - binLo_[1]) + w1 * (k2 - binLo_[2]));
+                    for (int c = cellStart_[cell]; more && c < cellStart_[cell + 1]; ++c) {
+                        const int p = cellPoints_[c];
+                        V3 x = V3::Zero();
+                        x.head<D>() = P.x[p];
+                        if (sphere && (x - shape.a).squaredNorm() > lim2) continue;
+                        more = f(k, p, x);
+                    }
+                }
+    }
+}
+
+template <int D>
+void BodyContact<D>::touching(const Grid<D>& grid, const MaterialPoints<D>& points, double reach,
+                              const std::vector<RigidShape>& candidates, std::vector<char>& touched)
+{
+    touched.assign(candidates.size(), 0);
+    if (candidates.empty() || points.size() == 0 || !binNear(grid, points, reach, candidates)) return;
+    forEachNear(candidates, points, reach, [&](int k, int, const V3& x) {
+        double phi;
+        V3 sp, n;
+        candidates[k].closest(x, phi, sp, n);
+        touched[k] = phi < reach;
+        return !touched[k];  // one point is enough
+    });
+}
+
 template <int D> void BodyContact<D>::afterForces(GridState<D>& s)
 {
     work = 0;
@@ -211,55 +275,28 @@ template <int D> void BodyContact<D>::afterForces(GridState<D>& s)
     if (shapes.empty() || s.points.size() == 0 || !s.support) return;
     const auto& P = s.points;
     const double reach = s.support->halfWidth();
-    // The cell range of each shape, and their union: only the points there are binned.
-    ranges_.resize(shapes.size());
-    bool any = false;
-    for (std::size_t k = 0; k < shapes.size(); ++k) {
-        Range& r = ranges_[k];
-        r.live = cellRange(s, shapes[k], reach, r.lo, r.hi);
-        if (!r.live) continue;
-        for (int d = 0; d < 3; ++d) {
-            binLo_[d] = any ? std::min(binLo_[d], r.lo[d]) : r.lo[d];
-            binHi_[d] = any ? std::max(binHi_[d], r.hi[d]) : r.hi[d];
-        }
-        any = true;
-    }
-    if (!any) return;
-    binPoints(s);
-    const int w0 = binHi_[0] - binLo_[0] + 1, w1 = binHi_[1] - binLo_[1] + 1;
+    if (!binNear(s.grid, P, reach, shapes)) return;
 
     // 1. The points touching each shape, and the nodes of their supports.
     touches_.clear();
-    for (int k = 0; k < static_cast<int>(shapes.size()); ++k) {
-        const RigidShape& shape = shapes[k];
-        const Range& r = ranges_[k];
-        if (!r.live) continue;
-        for (int k2 = r.lo[2]; k2 <= r.hi[2]; ++k2)
-            for (int j = r.lo[1]; j <= r.hi[1]; ++j)
-                for (int i = r.lo[0]; i <= r.hi[0]; ++i) {
-                    const int cell = (i - binLo_[0]) + w0 * ((j - binLo_[1]) + w1 * (k2 - binLo_[2]));
-                    for (int c = cellStart_[cell]; c < cellStart_[cell + 1]; ++c) {
-                        const int p = cellPoints_[c];
-                        V3 x = V3::Zero();
-                        x.head<D>() = P.x[p];
-                        double phi;
-                        V3 sp, n;
-                        shape.closest(x, phi, sp, n);
-                        if (!(phi < reach)) continue;
-                        if (D == 2) {
-                            n[2] = 0;
-                            const double len = n.norm();
-                            if (!(len > 1e-12)) continue;
-                            n /= len;
-                        }
-                        ++pointsInContact;
-                        const double m = P.mass[p];
-                        s.support->forEachNode(p, [&](int I, double N) {
-                            if (N > 0) touches_.push_back(Touch{k, I, N * m, N * m * n, N * m * sp});
-                        });
-                    }
-                }
-    }
+    forEachNear(shapes, P, reach, [&](int k, int p, const V3& x) {
+        double phi;
+        V3 sp, n;
+        shapes[k].closest(x, phi, sp, n);
+        if (!(phi < reach)) return true;
+        if (D == 2) {
+            n[2] = 0;
+            const double len = n.norm();
+            if (!(len > 1e-12)) return true;
+            n /= len;
+        }
+        ++pointsInContact;
+        const double m = P.mass[p];
+        s.support->forEachNode(p, [&](int I, double N) {
+            if (N > 0) touches_.push_back(Touch{k, I, N * m, N * m * n, N * m * sp});
+        });
+        return true;
+    });
     if (touches_.empty()) return;
     // Merge per (shape, node); stable, so the sums keep the point order (deterministic).
     std::stable_sort(touches_.begin(), touches_.end(), [](const Touch& a, const Touch& b) {

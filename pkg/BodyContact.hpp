@@ -71,6 +71,15 @@ public:
 
     void afterForces(GridState<D>& s) override;
 
+    /// Which of `candidates` would touch a point of `points` (the test of afterForces: a point
+    /// of a cell in the shape's range whose signed distance is below `reach`); touched[k] is
+    /// set to 1 for those, 0 for the others. Before a step, with the solver's points (which do
+    /// not move before the contact stage) and its support's half-width, it tells the caller which
+    /// bodies the stage will look at: a shape that touches no point receives no impulse, so its
+    /// body's velocity, mass and inertia need not be read (doc/contact.md, "Cost").
+    void touching(const Grid<D>& grid, const MaterialPoints<D>& points, double reach,
+                  const std::vector<RigidShape>& candidates, std::vector<char>& touched);
+
 private:
     struct Touch {
         int shape, node;
@@ -85,8 +94,16 @@ private:
     std::vector<Range> ranges_;
     int binLo_[3] = {0, 0, 0}, binHi_[3] = {0, 0, 0};  ///< the binned cells: the union of the ranges
     std::vector<int> cellStart_, cellPoints_, cellOf_, fill_, candidates_;
-    bool cellRange(const GridState<D>& s, const RigidShape& shape, double reach, int lo[3], int hi[3]) const;
-    void binPoints(const GridState<D>& s);
+    bool cellRange(const Grid<D>& g, const RigidShape& shape, double reach, int lo[3], int hi[3]) const;
+    /// The cell range of each of `list`, and the points of their union binned by cell; false when
+    /// no shape's range lies in the grid.
+    bool binNear(const Grid<D>& g, const MaterialPoints<D>& P, double reach, const std::vector<RigidShape>& list);
+    void binPoints(const Grid<D>& g, const MaterialPoints<D>& P);
+    /// Calls f(k, p, x) for every point p of the cells in the range of list[k] (binNear first)
+    /// that may lie within `reach` of it, shape by shape, cell by cell, in point order within a
+    /// cell; x is p's position in 3D. f returns false to go on to the next shape.
+    template <class F>
+    void forEachNear(const std::vector<RigidShape>& list, const MaterialPoints<D>& P, double reach, F&& f) const;
 };
 
 }  // namespace emp

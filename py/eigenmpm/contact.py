@@ -166,13 +166,15 @@ class BodyContact(PyRunner):
         the middle of the step without this contact (the leapfrog's v^{n+1/2}: its velocity plus
         O.dt times the forces already in O.forces and the NewtonIntegrator's gravity). YADE's
         Python API reads one body at a time; the common case (a free sphere) is read in C++
-        (Contact.addFreeSpheres: about 1 us per sphere), the others here (doc/contact.md, "Cost")."""
+        (Contact.addFreeSpheres), the others here (doc/contact.md, "Cost"). Given mpm's solver,
+        addFreeSpheres reads further and adds only the spheres that touch one of its points: the
+        others receive no impulse in this step."""
         core, dt = self.core, O.dt
         core.clear()
         _, newton = _newton()
         gravity = Vector3(newton.gravity) if newton is not None else Vector3.Zero
         spheres, others = self._selected()
-        added, rest = core.addFreeSpheres(O.bodies, spheres, O.forces, gravity, dt)
+        added, rest = core.addFreeSpheres(O.bodies, spheres, O.forces, gravity, dt, mpm.solver)
         self._bodyIds = list(added)
         index = {}
         for i in list(rest) + others:

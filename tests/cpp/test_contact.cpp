@@ -168,6 +168,66 @@ TYPED_TEST(ContactTest, MomentumIsExchangedExactlyWithAFreeBody)
     EXPECT_GT(contact->bodies[0].velocity[0], 0.0);
 }
 
+TYPED_TEST(ContactTest, TouchingNamesTheSpheresWithAPointWithinReachAsTheStageFindsThem)
+{
+    // touching() (which lets the caller skip the bodies no point touches) and the stage bin the
+    // points and reject a sphere's far points on the squared distance; both must find exactly
+    // the (sphere, point) pairs of a brute-force search, borderline pairs included.
+    constexpr int D = TypeParam::D;
+    using K = typename TypeParam::K;
+    auto s = fallingBlock<D, K>(0.0);
+    s->step(1e-9, 1);  // the grid exists from the first step
+    const auto& P = s->points();
+    const double reach = s->halfWidth() * s->settings().h;
+    auto c = std::make_shared<emp::BodyContact<D>>();
+    RigidBody fixed;  // infinite mass: the stage's impulses do not depend on the order here
+    c->bodies.push_back(fixed);
+    std::vector<RigidShape> spheres;
+    auto sphere = [&](const V3& centre, double radius) {
+        RigidShape sh;
+        sh.kind = RigidShape::sphere;
+        sh.a = centre;
+        sh.radius = radius;
+        spheres.push_back(sh);
+    };
+    for (int i = 0; i < 12; ++i)  // a row over the top face, in and out of reach
+        sphere(V3(0.028 + 0.002 * i, 0.0825 + 0.0005 * i, 0), 0.001 + 0.0002 * (i % 4));
+    for (std::size_t p = 0; p < P.size(); p += 37) {  // borderline: at reach from a point, +- rounding
+        V3 x = V3::Zero();
+        x.template head<D>() = P.x[p];
+        const double r = 0.0015 + 1e-5 * static_cast<double>(p % 7);
+        const V3 e = V3(1, 2, D == 3 ? 0.5 : 0).normalized();
+        for (const double f : {1 - 1e-15, 1.0, 1 + 1e-15}) sphere(x + (r + reach) * f * e, r);
+    }
+    sphere(V3(0.2, 0.2, 0), 0.001);  // outside the grid
+    std::vector<char> touched;
+    c->touching(s->grid(), P, reach, spheres, touched);
+    ASSERT_EQ(touched.size(), spheres.size());
+    int pairs = 0, some = 0, none = 0;
+    for (std::size_t k = 0; k < spheres.size(); ++k) {
+        bool any = false;
+        for (std::size_t p = 0; p < P.size(); ++p) {
+            V3 x = V3::Zero(), sp, n;
+            x.template head<D>() = P.x[p];
+            double phi;
+            spheres[k].closest(x, phi, sp, n);
+            if (phi < reach) {
+                any = true;
+                ++pairs;
+            }
+        }
+        EXPECT_EQ(touched[k] != 0, any) << "sphere " << k;
+        (any ? some : none) += 1;
+    }
+    EXPECT_GT(some, 5);
+    EXPECT_GT(none, 10);
+    // The stage finds the same pairs (each sphere on the fixed body).
+    c->shapes = spheres;
+    s->setContact(c);
+    s->step(1e-9, 1);
+    EXPECT_EQ(c->pointsInContact, pairs);
+}
+
 TYPED_TEST(ContactTest, FrictionNeverExceedsMuTimesTheNormalForce)
 {
     constexpr int D = TypeParam::D;

@@ -9,7 +9,7 @@ import subprocess
 import numpy as np
 import pytest
 from yade import O, pack, utils
-from yade.wrapper import ForceResetter, FrictMat, NewtonIntegrator
+from yade.wrapper import Box, ForceResetter, FrictMat, NewtonIntegrator
 
 import eigenmpm as em
 
@@ -350,3 +350,72 @@ def test_bodies_of_one_engine_touch_separate_and_restart_bitwise(tmp_path):
         mpm.fill(pack.inAlignedBox((0, 0.03, -1), (0.01, 0.04, 1)), em.ElasticMaterial(E=1e7, nu=0.3, rho=1000), body=64)
     with pytest.raises(ValueError, match="crack"):
         mpm.crack([(0.02, -0.003, 0), (0.02, 0.01, 0)])
+
+
+def spheres_on_a_block(n=24):
+    """A fixed block with a row of spheres on its top (some touching, some a little apart) and
+    spheres far above it; a clump, a fixed sphere and one with blocked DOFs among them."""
+    O.reset()
+    mpm = em.MpmEngine(dim=2, h=0.002, thickness=0.01, label="block", gravity=(0, -9.81, 0),
+                       domain=((-0.02, -0.02, 0), (0.08, 0.08, 0)))
+    mpm.fill(pack.inAlignedBox((0, 0, -1), (0.06, 0.02, 1)), em.ElasticMaterial(E=1e7, nu=0.3, rho=1000))
+    mpm.fix(region=pack.inAlignedBox((-1, -1, -1), (2, 0.001, 1)), components="xy", label="base")
+    steel = O.materials.append(FrictMat(density=7800, young=2e11))
+    row = [O.bodies.append(utils.sphere((0.001 + 0.0024 * i, 0.0205 + 0.0006 + 0.0003 * (i % 3), 0),
+                                        0.0006, material=steel)) for i in range(n)]
+    far = [O.bodies.append(utils.sphere((0.005 * i, 0.06, 0), 0.001, material=steel)) for i in range(8)]
+    O.bodies[row[3]].dynamic = False
+    O.bodies[row[5]].state.blockedDOFs = "xZ"
+    clump, _ = O.bodies.appendClumped([utils.sphere((0.03, 0.026, 0), 0.002, material=steel),
+                                       utils.sphere((0.034, 0.026, 0), 0.002, material=steel)])
+    O.bodies[clump].state.vel = (0, -1.0, 0)
+    contact = em.BodyContact(engine=mpm, friction=0.3)
+    O.engines = [ForceResetter(), mpm, contact, NewtonIntegrator(damping=0, gravity=(0, -9.81, 0))]
+    O.dt = 0.4 * mpm.criticalTimeStep()
+    return mpm, contact, row, far
+
+
+def test_spheres_that_touch_no_point_are_skipped_without_changing_the_results(monkeypatch):
+    """Contact.addFreeSpheres reads the velocity, mass and forces only of the spheres that touch
+    a point (doc/contact.md, "Cost"): the run is bitwise the one that reads every sphere, also
+    when a script grows a sphere's radius in place, moves one, gives one a box shape, replaces one
+    at its id, fixes and frees them, or changes a mass between steps."""
+    def run(skip):
+        mpm, contact, row, far = spheres_on_a_block()
+        steel = O.bodies[row[0]].material
+        out, read = [], []
+        for step in range(90):
+            if step == 30:
+                O.bodies[far[2]].shape.radius = 0.045  # now reaches the block's top
+                O.bodies[far[4]].state.pos = (0.02, 0.0208, 0)  # onto the block
+            if step == 31:
+                # In the step the radius grew, the sphere touched the block and felt its force.
+                assert np.linalg.norm(contact.force(far[2])) > 0 and np.linalg.norm(contact.force(far[4])) > 0
+            if step == 40:  # a shape without a radius now: the general path takes it
+                O.bodies[far[6]].shape = Box(extents=(0.002, 0.001, 0.002))
+                O.bodies[far[6]].state.pos = (0.045, 0.0209, 0)
+            if step == 41:
+                assert np.linalg.norm(contact.force(far[6])) > 0
+            if step == 50:
+                O.bodies[row[3]].dynamic = True
+                O.bodies[row[7]].dynamic = False
+                O.bodies[row[9]].state.mass *= 4
+                O.bodies.erase(row[11])
+                O.bodies.insertAtId(utils.sphere((0.0275, 0.0214, 0), 0.0012, material=steel), row[11])
+            O.run(1, True)
+            read.append(contact.core.numBodies)
+            out.append(np.concatenate([contact.totalForce(), [contact.core.work, contact.pointsInContact()]]))
+        states = [list(b.state.pos) + list(b.state.vel) + list(b.state.angVel) for b in O.bodies]
+        return np.array(out), np.array(states), mpm.solver.positions().copy(), mpm.solver.velocities().copy(), read
+
+    skipped = run(True)
+    plain = em._eigenmpm.Contact2.addFreeSpheres
+    monkeypatch.setattr(em._eigenmpm.Contact2, "addFreeSpheres",
+                        lambda core, bodies, ids, forces, gravity, dt, solver=None:
+                        plain(core, bodies, ids, forces, gravity, dt))  # no solver: every sphere read
+    every = run(False)
+    for a, b in zip(skipped[:4], every[:4]):
+        assert np.array_equal(a, b)
+    assert np.abs(skipped[0][:, 1]).max() > 0 and np.abs(skipped[0][:, 3]).max() > 0  # forces, work
+    # Skipping happened: fewer bodies in the stage than the plain read, from the second step on.
+    assert all(s < e for s, e in zip(skipped[4][1:], every[4][1:]))
