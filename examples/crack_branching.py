@@ -21,6 +21,7 @@ doc/restart.md); --resume DIR/checkpoints continues from the newest of them to t
 the uninterrupted run (give the same parameters), and writes the outputs as usual (wall_time_s
 then counts the resumed part only).
     yade-batch table.txt examples/crack_branching.py      # a column per parameter (and quick)
+    mpiexec -n 2 yade -n -j1 -x examples/crack_branching.py --quick   # on 2 processes (doc/parallel.md)
 
 with params h_mm, ppc, shape, kappaOverH, alpha, endTime_us, dt_us, dtFraction (if > 0: the time step
 as this fraction of the critical step, instead of dt_us), phantom, notchWidthOverH, vtkPeriod_us, split
@@ -133,7 +134,7 @@ def main(argv):
     end = runSteps(steps - O.iter)  # Ctrl-C, SIGTERM or a solver error: outputs up to the stop, then finish()
     steps = mpm.solver.steps
     wall = time.time() - start
-    n = mpm.solver.numPoints
+    n = len(X0)  # (all points: under mpiexec a rank's solver holds its part, doc/parallel.md)
     summary = dict(crack.summary())
     summary.pop("crack_tips_m")
     h = o["h_mm"] * 1e-3
@@ -152,16 +153,17 @@ def main(argv):
                    elastic_energy_J=mpm.elasticEnergy(), kinetic_energy_J=mpm.kineticEnergy(),
                    tips_at_end=len(crack.history[-1][4]) if crack.history else 0,
                    parameters=o, quick=quick, **end.summary())
-    with open(os.path.join(out, "summary.json"), "w") as f:
-        json.dump(summary, f, indent=2)
-    eroded = mpm.solver.positions()[mpm.solver.damage() <= 0]
-    np.savetxt(os.path.join(out, "eroded.csv"), 1e3 * eroded[:, :2], fmt="%.6g", delimiter=",",
-               header="x_mm,y_mm", comments="")
-    plots.damageMap(mpm, os.path.join(out, "damage.png"))
+    x, damage = (em.parallel.gather(mpm, a) for a in (mpm.solver.positions(), mpm.solver.damage()))
+    plots.damageMap(mpm, os.path.join(out, "damage.png"))  # (every rank: it gathers the points)
     t = np.array(plot.data["t"])
     keys = ("plate_EkStep", "plate_Ee", "erosion_Ef", "plate_Wext", "plate_balance")
-    np.savetxt(os.path.join(out, "energy.csv"), np.column_stack([1e6 * t] + [plot.data[k] for k in keys]),
-               fmt="%.9g", delimiter=",", header="t_us,Ek_J,Ee_J,Ef_J,Wext_J,balance_J", comments="")
+    if em.parallel.isRoot():  # under mpiexec rank 0 writes the files (the figures save themselves there)
+        with open(os.path.join(out, "summary.json"), "w") as f:
+            json.dump(summary, f, indent=2)
+        np.savetxt(os.path.join(out, "eroded.csv"), 1e3 * x[damage <= 0][:, :2], fmt="%.6g", delimiter=",",
+                   header="x_mm,y_mm", comments="")
+        np.savetxt(os.path.join(out, "energy.csv"), np.column_stack([1e6 * t] + [plot.data[k] for k in keys]),
+                   fmt="%.9g", delimiter=",", header="t_us,Ek_J,Ee_J,Ef_J,Wext_J,balance_J", comments="")
     plots.series(os.path.join(out, "energy.png"), t, {"elastic (Eq 32)": plot.data["plate_Ee"],
                                                       "kinetic": plot.data["plate_Ek"],
                                                       "dissipated (Eq 33)": plot.data["erosion_Ef"],
@@ -173,8 +175,9 @@ def main(argv):
     plots.series(os.path.join(out, "tip_speed.png"), ts, {"EigenMPM": v}, ylabel="tip speed (m/s)",
                  title="Crack tip speed" + (f" (front advance over {w:.2g} us windows)" if w else ""),
                  hlines=((1580, "experimental maximum 1580 m/s"), (3160, "Rayleigh speed ~3160 m/s")))
-    print(json.dumps({k: v for k, v in summary.items() if k != "parameters"}, indent=2))
-    print("outputs in", out)
+    if em.parallel.isRoot():
+        print(json.dumps({k: v for k, v in summary.items() if k != "parameters"}, indent=2))
+        print("outputs in", out)
     finish(end, out)
     return summary
 

@@ -6,6 +6,8 @@ import os
 
 import numpy as np
 
+from . import parallel
+
 
 def _pyplot():
     import matplotlib
@@ -16,11 +18,14 @@ def _pyplot():
 
 @contextlib.contextmanager
 def _figure(path, figsize):
-    """The axes of a new figure, saved to path when the block ends and closed in any case."""
+    """The axes of a new figure, saved to path when the block ends and closed in any case. Under
+    mpiexec only rank 0 saves it (every rank draws: the data may need every rank)."""
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=figsize)
     try:
         yield ax
+        if not parallel.isRoot():
+            return
         os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
         fig.tight_layout()
         fig.savefig(path, dpi=130)
@@ -32,8 +37,8 @@ def damageMap(mpm, path, title=None, scale=1e3, unit="mm"):
     """The points of a 2D MpmEngine at their current positions, intact blue and eroded red (like
     the paper's Figures 8, 16, 20, 24), with the pre-existing cracks as black lines. In 3D the
     points (and crack polygons) are projected on the x-y plane."""
-    x = mpm.solver.positions() * scale
-    d = mpm.solver.damage()
+    x = parallel.gather(mpm, mpm.solver.positions()) * scale  # (every rank's points)
+    d = parallel.gather(mpm, mpm.solver.damage())
     lo, hi = x.min(axis=0), x.max(axis=0)
     span = np.maximum(hi - lo, 1e-30)
     width = 7.0

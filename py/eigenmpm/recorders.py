@@ -280,5 +280,7 @@ class Progress(PyRunner):
         elapsed = now - self._start[0]
         done = f - self._start[1]
         eta = elapsed * (1.0 - f) / done if done > 0 else float("nan")
+        if not parallel.isRoot():  # (under mpiexec one line for all ranks)
+            return
         print(f"[EigenMPM] iter {O.iter}, t = {O.time:.6g} s, {100 * f:5.1f} %, "
               f"elapsed {elapsed:.0f} s, ETA {eta:.0f} s", file=self.stream or sys.stdout, flush=True)

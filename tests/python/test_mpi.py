@@ -130,3 +130,27 @@ def test_a_rank_part_is_refused_on_another_number_of_ranks(tmp_path):
     res = subprocess.run(cmd, env=_env(), capture_output=True, text=True, timeout=600, stdin=subprocess.DEVNULL)
     assert res.returncode != 0
     assert "resume it with as many" in res.stdout + res.stderr or "cannot be read" in res.stdout + res.stderr
+
+
+def test_the_branching_example_writes_the_same_outputs_under_mpiexec(tmp_path):
+    """examples/crack_branching.py --quick, unchanged, on 2 ranks: rank 0 writes the outputs,
+    with the crack's numbers of the one-process run and a .pvtp per record."""
+    script = os.path.join(ROOT, "examples", "crack_branching.py")
+    runs = {}
+    for ranks in (0, 2):
+        out = tmp_path / f"ranks{ranks}"
+        cmd = ["yade", "-n", "-j1", "-x", script, "--quick", "--out", str(out)]
+        if ranks:
+            cmd = ["mpiexec", "--oversubscribe", "-n", str(ranks)] + cmd
+        res = subprocess.run(cmd, env=_env(), capture_output=True, text=True, timeout=600, stdin=subprocess.DEVNULL)
+        assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-3000:]
+        with open(out / "summary.json") as f:
+            runs[ranks] = json.load(f)
+    one, two = runs[0], runs[2]
+    for key in ("initiation_time_us", "branching_time_us", "cut_through_time_us", "max_tip_speed_m_s",
+                "dissipated_energy_J", "particles", "steps", "tips_at_end"):
+        assert two[key] == one[key], key
+    assert two["external_work_J"] == pytest.approx(one["external_work_J"], rel=1e-12)
+    assert (tmp_path / "ranks2" / "eroded.csv").read_text() == (tmp_path / "ranks0" / "eroded.csv").read_text()
+    assert (tmp_path / "ranks2" / "damage.png").exists()
+    assert sorted(p.name for p in (tmp_path / "ranks2" / "vtk").glob("*.pvtp"))
