@@ -33,11 +33,12 @@ def _figure(path, figsize):
         plt.close(fig)
 
 
-def damageMap(mpm, path, title=None, scale=1e3, unit="mm"):
+def damageMap(mpm, path, title=None, scale=1e3, unit="mm", plane="xy"):
     """The points of a 2D MpmEngine at their current positions, intact blue and eroded red (like
     the paper's Figures 8, 16, 20, 24), with the pre-existing cracks as black lines. In 3D the
-    points (and crack polygons) are projected on the x-y plane."""
-    x = parallel.gather(mpm, mpm.solver.positions()) * scale  # (every rank's points)
+    points (and crack polygons) are projected on `plane` ('xy', 'xz' or 'yz')."""
+    axes = ["xyz".index(c) for c in plane]
+    x = parallel.gather(mpm, mpm.solver.positions())[:, axes] * scale  # (every rank's points)
     d = parallel.gather(mpm, mpm.solver.damage())
     lo, hi = x.min(axis=0), x.max(axis=0)
     span = np.maximum(hi - lo, 1e-30)
@@ -61,13 +62,13 @@ def damageMap(mpm, path, title=None, scale=1e3, unit="mm"):
             ax.imshow(img, origin="lower", extent=(lo[0], hi[0], lo[1], hi[1]), interpolation="nearest",
                       cmap=ListedColormap(["white", "#1f4e9c", "#d62728"]), vmin=0, vmax=2)
         for c in range(mpm.solver.numCracks):
-            v = np.array([list(p) for p in mpm.solver.crackVertices(c)]) * scale
+            v = np.array([list(p) for p in mpm.solver.crackVertices(c)])[:, axes] * scale
             ax.plot(np.append(v[:, 0], v[0, 0]) if mpm.dim == 3 else v[:, 0],
                     np.append(v[:, 1], v[0, 1]) if mpm.dim == 3 else v[:, 1], "k-", lw=1.2,
                     label="pre-existing crack" if c == 0 else None)
         ax.set_aspect("equal")
-        ax.set_xlabel(f"x ({unit})")
-        ax.set_ylabel(f"y ({unit})")
+        ax.set_xlabel(f"{plane[0]} ({unit})")
+        ax.set_ylabel(f"{plane[1]} ({unit})")
         ax.set_title(title or f"damage at t = {mpm.solver.time * 1e6:.1f} us ({int((~intact).sum())} points eroded)")
     return path
 

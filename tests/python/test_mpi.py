@@ -154,3 +154,26 @@ def test_the_branching_example_writes_the_same_outputs_under_mpiexec(tmp_path):
     assert (tmp_path / "ranks2" / "eroded.csv").read_text() == (tmp_path / "ranks0" / "eroded.csv").read_text()
     assert (tmp_path / "ranks2" / "damage.png").exists()
     assert sorted(p.name for p in (tmp_path / "ranks2" / "vtk").glob("*.pvtp"))
+
+
+def test_the_3d_plate_cracks_alike_on_one_and_on_two_ranks(tmp_path):
+    """examples/plate3d.py --quick (16 000 points, a planar phantom pre-crack through the
+    thickness): the crack starts from the pre-crack, and 2 ranks give the one-process numbers."""
+    script = os.path.join(ROOT, "examples", "plate3d.py")
+    runs = {}
+    for ranks in (0, 2):
+        out = tmp_path / f"ranks{ranks}"
+        cmd = ["yade", "-n", "-j1", "-x", script, "--quick", "--out", str(out)]
+        if ranks:
+            cmd = ["mpiexec", "--oversubscribe", "-n", str(ranks)] + cmd
+        res = subprocess.run(cmd, env=_env(), capture_output=True, text=True, timeout=600, stdin=subprocess.DEVNULL)
+        assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-3000:]
+        with open(out / "summary.json") as f:
+            runs[ranks] = json.load(f)
+    one, two = runs[0], runs[2]
+    assert one["eroded_points"] > 100 and one["initiation_time_us"] is not None
+    assert 5 < one["initiation_time_us"] < 20  # the 2D plates start at 10-12 us
+    for key in ("initiation_time_us", "branching_time_us", "eroded_points", "dissipated_energy_J",
+                "crack_front_distance_m", "max_tip_speed_m_s", "particles", "steps"):
+        assert two[key] == one[key], key
+    assert two["ranks"] == 2 and (tmp_path / "ranks2" / "damage.png").exists()
