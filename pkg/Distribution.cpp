@@ -258,6 +258,18 @@ template <int D> void Distribution<D>::restoreBox(Grid<D>& g, const int* lo, con
     });
 }
 
+template <int D> void Distribution<D>::shareNodes(const Grid<D>& g, std::vector<int>& nodes)
+{
+    Bytes toLeft, toRight, fromLeft, fromRight;
+    for (int I : nodes) {
+        const int side = sharedSide(I / g.stride[D - 1]);
+        if (side != 0) (side < 0 ? toLeft : toRight).put(I);
+    }
+    t_->exchange(toLeft.data, toRight.data, fromLeft.data, fromRight.data);
+    for (Bytes* b : {&fromLeft, &fromRight})
+        while (!b->done()) nodes.push_back(b->get<int>());
+}
+
 template <int D> int Distribution<D>::localIndex(const MaterialPoints<D>& P, int id) const
 {
     const auto it = std::lower_bound(P.globalId.begin(), P.globalId.end(), id);

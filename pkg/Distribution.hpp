@@ -152,6 +152,10 @@ public:
     /// The neighbours' points within `reach` of this rank's range along the last axis.
     void ghosts(const MaterialPoints<D>& P, const Grid<D>& g, double reach, GhostPoints<D>& out);
 
+    /// Adds to `nodes` (regular node indices) those in the planes this rank shares with its
+    /// neighbours that the neighbours list in theirs.
+    void shareNodes(const Grid<D>& g, std::vector<int>& nodes);
+
     /// Index of the point of globalId `id` among this rank's points, or -1.
     int localIndex(const MaterialPoints<D>& P, int id) const;
 

@@ -282,6 +282,18 @@ template <int D, class K> void Solver<D, K>::nodalVelocity(int nThreads)
 template <int D, class K> void Solver<D, K>::applyConditionsAfterVelocity(double dt)
 {
     GridState<D> s{grid_, points_, phantom_, std::max(time_ - 0.5 * dt, 0.0), dt};
+    if (dist_)  // conditions on points: the nodes of this rank's points and of its neighbours'
+        for (auto& c : velocityConditions_) {
+            if (c->points.empty()) continue;
+            c->pointNodes.clear();
+            for (int id : c->points) {
+                const int p = dist_->localIndex(points_, id);
+                const int I = p >= 0 ? grid_.nearestNode(points_.x[p]) : -1;
+                if (I >= 0) c->pointNodes.push_back(I);
+            }
+            dist_->shareNodes(grid_, c->pointNodes);
+            c->pointNodesGiven = true;
+        }
     if (crackContact_ && !phantom_.empty()) crackContact_->afterNodalVelocity(s);
     if (mapping_ == 2) bodyContact_.template apply<false>(grid_, phantom_, dt);
     for (auto& c : conditions_) c->afterNodalVelocity(s);
@@ -908,9 +920,6 @@ template <int D, class K> void Solver<D, K>::checkDistributable() const
                                            [&](const auto& v) { return v == c; }) != velocityConditions_.end();
         require(velocity, "grid condition", "other than a velocity condition", "velocity conditions" + not_);
     }
-    for (const auto& c : velocityConditions_)
-        require(c->points.empty(), "velocity condition on points", c->points.size(),
-                "velocity conditions on regions of nodes" + not_);
 }
 
 template <int D, class K> int Solver<D, K>::addCrack(const std::vector<Eigen::Vector3d>& vertices)

@@ -7,10 +7,13 @@ namespace emp {
 template <int D> void VelocityCondition<D>::afterNodalVelocity(GridState<D>& s)
 {
     active = nodes;
-    for (int p : points) {
-        const int I = s.grid.nearestNode(s.points.x[p]);
-        if (I >= 0) active.push_back(I);
-    }
+    if (pointNodesGiven)
+        active.insert(active.end(), pointNodes.begin(), pointNodes.end());
+    else
+        for (int p : points) {
+            const int I = s.grid.nearestNode(s.points.x[p]);
+            if (I >= 0) active.push_back(I);
+        }
     std::sort(active.begin(), active.end());
     active.erase(std::unique(active.begin(), active.end()), active.end());
     const Eigen::Vector3d vbar = value(s.time);

@@ -20,6 +20,10 @@ public:
     Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
     double rampTime = 0;
     std::vector<int> active;  ///< nodes constrained in the current step
+    /// A distributed run gives the nodes of its `points` for this step here (the ranks' points
+    /// are spread over them; Solver::applyConditionsAfterVelocity) instead of the points' ids.
+    std::vector<int> pointNodes;
+    bool pointNodesGiven = false;
     Eigen::Vector3d reaction = Eigen::Vector3d::Zero();  ///< force the condition exerts, N
     /// Work of the reaction on the body so far, J: each step reaction . (v^{n-1/2} + v^{n+1/2})
     /// dt / 2 with the prescribed velocities at t^{n-1/2} and t^{n+1/2}.
