@@ -375,7 +375,8 @@ def main(argv):
     end = runSteps(steps - O.iter)  # Ctrl-C, SIGTERM or a solver error: outputs up to the stop, then finish()
     wall = time.time() - start
     steps = mpm.solver.steps
-    n = mpm.solver.numPoints
+    n = len(mpm.referencePositions)  # (all points: under mpiexec a rank's solver holds its part)
+    speeds = em.parallel.gather(mpm, np.linalg.norm(mpm.solver.velocities(), axis=1))
     summary = analyse(o, X0, crack.core.events(), kappa)
     cs = crack.summary()
     curve = np.array(watch.curve)
@@ -401,6 +402,13 @@ def main(argv):
     if bodies:
         summary.update(peak_load_raw_N=float(raw[:, 1].max()), hammer_min_force_N=float(raw[:, 1].min()),
                        load_window_us=1e6 * LOAD_WINDOW)
+    plots.damageMap(mpm, os.path.join(out, "damage.png"),  # (every rank: it gathers the points)
+                    title=f"John-Shah, gamma = {o['gamma']:g}, h = {o['h_mm']:g} mm, "
+                          f"t = {mpm.solver.time * 1e6:.0f} us: " + (f"crack from the {summary['crack_origin']}"
+                                                                  if summary["crack_origin"] else "no crack"))
+    if not em.parallel.isRoot():  # under mpiexec rank 0 writes the outputs (doc/parallel.md)
+        finish(end, out)
+        return summary
     header = "t_us,load_N,supports_N" + (",left_support_N,right_support_N" if bodies else "")
     np.savetxt(os.path.join(out, "load.csv"), np.column_stack([1e6 * curve[:, 0], curve[:, 1:]]), delimiter=",",
                header=header, comments="", fmt="%.9g")
@@ -408,15 +416,11 @@ def main(argv):
                    thickness_m=h, dissipated_energy_J=cs["dissipated_energy_J"], eroded_count=cs["eroded_count"],
                    particles=n, steps=steps, wall_time_s=wall, particle_steps_per_s=n * steps / wall, dt_s=O.dt,
                    critical_dt_s=mpm.criticalTimeStep(),
-                   max_point_speed_m_s=float(np.max(np.linalg.norm(mpm.solver.velocities(), axis=1))),
+                   max_point_speed_m_s=float(np.max(speeds)),
                    transfer=mpm.transfer, stress_update=mpm.stressUpdate, parameters=o, quick=quick)
     summary.update(end.summary())
     with open(os.path.join(out, "summary.json"), "w") as f:
         json.dump(summary, f, indent=2)
-    plots.damageMap(mpm, os.path.join(out, "damage.png"),
-                    title=f"John-Shah, gamma = {o['gamma']:g}, h = {o['h_mm']:g} mm, "
-                          f"t = {mpm.solver.time * 1e6:.0f} us: " + (f"crack from the {summary['crack_origin']}"
-                                                                  if summary["crack_origin"] else "no crack"))
     plots.series(os.path.join(out, "load.png"), curve[:, 0], {"load point": curve[:, 1], "supports": curve[:, 2]},
                  ylabel=f"force (N, thickness {h * 1e3:g} mm)", title="John-Shah: reactions")
     print(json.dumps({k: v for k, v in summary.items() if k != "parameters"}, indent=2))

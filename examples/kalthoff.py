@@ -399,13 +399,14 @@ def main(argv):
     end = runSteps(steps - O.iter)  # Ctrl-C, SIGTERM or a solver error: outputs up to the stop, then finish()
     wall = time.time() - start
     steps = mpm.solver.steps
-    n = mpm.solver.numPoints
+    n = len(mpm.referencePositions)  # (all points: under mpiexec a rank's solver holds its part)
+    speeds = em.parallel.gather(mpm, np.linalg.norm(mpm.solver.velocities(), axis=1))
     res, path, tEr, speedT, speed = analyse(o, X0, crack.core.events(), spacing, kappa)
     s = crack.summary()
     summary = dict(initiation_time_us=s["initiation_time_us"], **res,
                    max_tip_speed_m_s=float(speed.max()) if len(speed) else 0.0,
                    rayleigh_speed_m_s=RAYLEIGH, end_time_us=1e6 * mpm.solver.time,
-                   max_point_speed_m_s=float(np.max(np.linalg.norm(mpm.solver.velocities(), axis=1))),
+                   max_point_speed_m_s=float(np.max(speeds)),
                    dissipated_energy_J=s["dissipated_energy_J"],
                    eroded_count=s["eroded_count"], particles=n, steps=steps, wall_time_s=wall,
                    particle_steps_per_s=n * steps / wall, dt_s=O.dt, critical_dt_s=mpm.criticalTimeStep(),
@@ -415,14 +416,17 @@ def main(argv):
     if watch is not None:
         summary.update(projectileSummary(o, watch, s["initiation_time_us"]))
     summary.update(end.summary())
+    plots.damageMap(mpm, os.path.join(out, "damage.png"),  # (every rank: it gathers the points)
+                    title=f"Kalthoff-Winkler, h = {o['h_mm']:g} mm, t = {mpm.solver.time * 1e6:.1f} us")
+    if not em.parallel.isRoot():  # under mpiexec rank 0 writes the outputs (doc/parallel.md)
+        finish(end, out)
+        return summary
     with open(os.path.join(out, "summary.json"), "w") as f:
         json.dump(summary, f, indent=2)
     with open(os.path.join(out, "crack_path.csv"), "w") as f:
         f.write("x_mm,y_mm,erosion_time_us\n")
         for (x, y), te in zip(path, tEr):
             f.write(f"{x * 1e3:.6g},{y * 1e3:.6g},{te * 1e6:.6g}\n")
-    plots.damageMap(mpm, os.path.join(out, "damage.png"),
-                    title=f"Kalthoff-Winkler, h = {o['h_mm']:g} mm, t = {mpm.solver.time * 1e6:.1f} us")
     plots.series(os.path.join(out, "tip_speed.png"), speedT, {"EigenMPM": speed}, ylabel="tip speed (m/s)",
                  title=f"Crack tip speed (window {o['tipWindow_us']:g} us)",
                  hlines=((RAYLEIGH, "Rayleigh speed 2803 m/s"), (1635, "paper maximum 1635 m/s")))

@@ -147,7 +147,7 @@ def main(argv):
     i_init = int(np.searchsorted(tc, t_init)) if t_init is not None else None
     if i_init is not None and i_init >= len(tc):
         i_init = len(tc) - 1
-    n = mpm.solver.numPoints
+    n = len(mpm.referencePositions)  # (all points: under mpiexec a rank's solver holds its part)
     summary = dict(peak_load_kN=float(Fs[ip]) / 1e3, displacement_at_peak_mm=float(u[ip]) * 1e3,
                    initiation_load_kN=None if i_init is None else float(Fs[i_init]) / 1e3,
                    initiation_displacement_mm=None if i_init is None else float(u[i_init]) * 1e3,
@@ -155,14 +155,18 @@ def main(argv):
                    particle_steps_per_s=n * steps / wall, dt_s=O.dt, transfer=mpm.transfer,
                    stress_update=mpm.stressUpdate, parameters=o, quick=quick, **end.summary())
     summary.update({k: v for k, v in crack.summary().items() if k != "crack_tips_m"})
+    x, damage = (em.parallel.gather(mpm, a) for a in (mpm.solver.positions(), mpm.solver.damage()))
+    plots.damageMap(mpm, os.path.join(out, "damage.png"))  # (every rank: it gathers the points)
+    if not em.parallel.isRoot():  # under mpiexec rank 0 writes the outputs (doc/parallel.md)
+        finish(end, out)
+        return summary
     with open(os.path.join(out, "summary.json"), "w") as f:
         json.dump(summary, f, indent=2)
     with open(os.path.join(out, "load_displacement.csv"), "w") as f:
         f.write("displacement_mm,load_kN,load_smoothed_kN\n")
         for ui, Fi, Si in zip(u, F, Fs):
             f.write(f"{ui * 1e3:.6g},{Fi / 1e3:.6g},{Si / 1e3:.6g}\n")
-    eroded = mpm.solver.positions()[mpm.solver.damage() <= 0]
-    np.savetxt(os.path.join(out, "eroded.csv"), 1e3 * eroded[:, :2], fmt="%.6g", delimiter=",",
+    np.savetxt(os.path.join(out, "eroded.csv"), 1e3 * x[damage <= 0][:, :2], fmt="%.6g", delimiter=",",
                header="x_mm,y_mm", comments="")
     import matplotlib
     matplotlib.use("Agg")
@@ -186,7 +190,6 @@ def main(argv):
     fig.tight_layout()
     fig.savefig(os.path.join(out, "load_displacement.png"), dpi=130)
     plt.close(fig)
-    plots.damageMap(mpm, os.path.join(out, "damage.png"))
     print(json.dumps({k: v for k, v in summary.items() if k != "parameters"}, indent=2))
     print("outputs in", out)
     finish(end, out)
