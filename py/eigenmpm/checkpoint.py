@@ -6,6 +6,7 @@ import time
 
 from yade import O, PyRunner
 
+from . import parallel
 from .engines import _register, registered
 from .params import Param, apply, declare
 
@@ -74,16 +75,32 @@ class Checkpoint(PyRunner):
                                "saves the state at the start of an iteration")
         final = os.path.join(self.directory, f"checkpoint-{O.iter:09d}")
         tmp = final + ".tmp"
-        shutil.rmtree(tmp, ignore_errors=True)
-        os.makedirs(tmp)
+        # Under mpiexec rank 0 prepares and completes the folder; every rank writes its part into
+        # it in between (doc/parallel.md). The barriers keep the steps in that order.
+        barrier = _barrier()
+        if parallel.isRoot():
+            shutil.rmtree(tmp, ignore_errors=True)
+            os.makedirs(tmp)
+        barrier()
         self._iterLast, self._wallLast = O.iter, time.time()
         O.save(os.path.join(tmp, SCENE))
-        shutil.rmtree(final, ignore_errors=True)
-        os.replace(tmp, final)
+        barrier()
+        if parallel.isRoot():
+            shutil.rmtree(final, ignore_errors=True)
+            os.replace(tmp, final)
+            for old in checkpoints(self.directory)[:-self.keep]:
+                shutil.rmtree(old, ignore_errors=True)
+        barrier()
         self.saved.append(final)
-        for old in checkpoints(self.directory)[:-self.keep]:
-            shutil.rmtree(old, ignore_errors=True)
         return final
+
+
+def _barrier():
+    """A barrier over the ranks under mpiexec; nothing on one process."""
+    if parallel.worldSize() == 1:
+        return lambda: None
+    from mpi4py import MPI
+    return MPI.COMM_WORLD.Barrier
 
 
 def checkpoints(directory):

@@ -177,3 +177,25 @@ def test_the_3d_plate_cracks_alike_on_one_and_on_two_ranks(tmp_path):
                 "crack_front_distance_m", "max_tip_speed_m_s", "particles", "steps"):
         assert two[key] == one[key], key
     assert two["ranks"] == 2 and (tmp_path / "ranks2" / "damage.png").exists()
+
+
+def test_checkpoints_under_mpiexec_resume_to_the_uninterrupted_run(tmp_path):
+    """crack_branching.py --quick --checkpoint-every 300 on 2 ranks (every rank writes its part
+    into the checkpoint folder, rank 0 completes it), then --resume from it on 2 ranks: the crack's
+    numbers and eroded.csv of the uninterrupted run."""
+    script = os.path.join(ROOT, "examples", "crack_branching.py")
+    full, resumed = tmp_path / "full", tmp_path / "resumed"
+    for args in (["--out", str(full), "--checkpoint-every", "300"],
+                 ["--out", str(resumed), "--resume", str(full / "checkpoints")]):
+        cmd = ["mpiexec", "--oversubscribe", "-n", "2", "yade", "-n", "-j1", "-x", script, "--quick"] + args
+        res = subprocess.run(cmd, env=_env(), capture_output=True, text=True, timeout=600, stdin=subprocess.DEVNULL)
+        assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-3000:]
+    newest = sorted((full / "checkpoints").iterdir())[-1]
+    assert newest.name == "checkpoint-000000900"
+    assert sorted(p.name for p in newest.iterdir() if p.name.endswith(".eigenmpm")) == [
+        "scene.yade.bz2.r0of2.eigenmpm", "scene.yade.bz2.r1of2.eigenmpm"]
+    a, b = (json.loads((d / "summary.json").read_text()) for d in (full, resumed))
+    for key in ("initiation_time_us", "branching_time_us", "cut_through_time_us", "dissipated_energy_J",
+                "max_tip_speed_m_s", "steps"):
+        assert b[key] == a[key], key
+    assert (resumed / "eroded.csv").read_text() == (full / "eroded.csv").read_text()
