@@ -132,21 +132,25 @@ def test_a_rank_part_is_refused_on_another_number_of_ranks(tmp_path):
     assert "resume it with as many" in res.stdout + res.stderr or "cannot be read" in res.stdout + res.stderr
 
 
-def test_the_branching_example_writes_the_same_outputs_under_mpiexec(tmp_path):
-    """examples/crack_branching.py --quick, unchanged, on 2 ranks: rank 0 writes the outputs,
-    with the crack's numbers of the one-process run and a .pvtp per record."""
-    script = os.path.join(ROOT, "examples", "crack_branching.py")
-    runs = {}
+def _exampleOnOneAndTwo(tmp_path, name):
+    """The summaries of examples/<name>.py --quick on one process and under mpiexec -n 2 (outputs
+    in tmp_path/ranks0 and ranks2)."""
+    runs = []
     for ranks in (0, 2):
         out = tmp_path / f"ranks{ranks}"
-        cmd = ["yade", "-n", "-j1", "-x", script, "--quick", "--out", str(out)]
+        cmd = ["yade", "-n", "-j1", "-x", os.path.join(ROOT, "examples", name + ".py"), "--quick", "--out", str(out)]
         if ranks:
             cmd = ["mpiexec", "--oversubscribe", "-n", str(ranks)] + cmd
         res = subprocess.run(cmd, env=_env(), capture_output=True, text=True, timeout=600, stdin=subprocess.DEVNULL)
         assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-3000:]
-        with open(out / "summary.json") as f:
-            runs[ranks] = json.load(f)
-    one, two = runs[0], runs[2]
+        runs.append(json.loads((out / "summary.json").read_text()))
+    return runs
+
+
+def test_the_branching_example_writes_the_same_outputs_under_mpiexec(tmp_path):
+    """examples/crack_branching.py --quick, unchanged, on 2 ranks: rank 0 writes the outputs,
+    with the crack's numbers of the one-process run and a .pvtp per record."""
+    one, two = _exampleOnOneAndTwo(tmp_path, "crack_branching")
     for key in ("initiation_time_us", "branching_time_us", "cut_through_time_us", "max_tip_speed_m_s",
                 "dissipated_energy_J", "particles", "steps", "tips_at_end"):
         assert two[key] == one[key], key
@@ -159,18 +163,7 @@ def test_the_branching_example_writes_the_same_outputs_under_mpiexec(tmp_path):
 def test_the_3d_plate_cracks_alike_on_one_and_on_two_ranks(tmp_path):
     """examples/plate3d.py --quick (16 000 points, a planar phantom pre-crack through the
     thickness): the crack starts from the pre-crack, and 2 ranks give the one-process numbers."""
-    script = os.path.join(ROOT, "examples", "plate3d.py")
-    runs = {}
-    for ranks in (0, 2):
-        out = tmp_path / f"ranks{ranks}"
-        cmd = ["yade", "-n", "-j1", "-x", script, "--quick", "--out", str(out)]
-        if ranks:
-            cmd = ["mpiexec", "--oversubscribe", "-n", str(ranks)] + cmd
-        res = subprocess.run(cmd, env=_env(), capture_output=True, text=True, timeout=600, stdin=subprocess.DEVNULL)
-        assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-3000:]
-        with open(out / "summary.json") as f:
-            runs[ranks] = json.load(f)
-    one, two = runs[0], runs[2]
+    one, two = _exampleOnOneAndTwo(tmp_path, "plate3d")
     assert one["eroded_points"] > 100 and one["initiation_time_us"] is not None
     assert 5 < one["initiation_time_us"] < 20  # the 2D plates start at 10-12 us
     for key in ("initiation_time_us", "branching_time_us", "eroded_points", "dissipated_energy_J",
