@@ -12,7 +12,16 @@
 //   static double outOfPlaneStress(const Mat<2>& eps, double c, const ElasticMaterial& m);
 //       sigma_zz of a 2D point (plane strain; plane stress returns 0)
 //   static double waveSpeed(const ElasticMaterial& m);   dilatational wave speed (critical dt)
+// and, optionally, for speed (HasResponse2 below):
+//   static void response2(double exx, double exy, double eyx, double eyy, double c, double lambda,
+//                         double mu, double& sxx, double& sxy, double& syx, double& syy,
+//                         double& psiPlus, double& psiMinus);
+//       the 2D stress c sigma+ + sigma- and psi+/psi- on plain numbers, inlinable and without
+//       branches; the solver then evaluates the law for runs of points in one vectorised loop
+//       (Solver::lawOfRun2). It must give bitwise what response<2> gives (tested for every law).
 #pragma once
+#include <type_traits>
+
 #include <Eigen/Dense>
 
 namespace emp {
@@ -45,6 +54,10 @@ template <int D> inline double strainEnergy(const Mat<D>& eps, double lambda, do
     const double tr = eps.trace();
     return 0.5 * lambda * tr * tr + mu * eps.squaredNorm();
 }
+
+/// Whether law L offers the optional pointwise 2D response (response2).
+template <class L, class = void> struct HasResponse2 : std::false_type {};
+template <class L> struct HasResponse2<L, std::void_t<decltype(&L::response2)>> : std::true_type {};
 
 inline double positivePart(double x) { return x > 0 ? x : 0.0; }
 inline double negativePart(double x) { return x < 0 ? x : 0.0; }

@@ -240,12 +240,9 @@ template <int D, class K> void Solver<D, K>::applyConditionsAfterVelocity(double
 
 // Forced inline (see Stencil.hpp): the per-point pieces must merge into the pass's loop; as
 // out-of-line calls they cost one call per point and keep the sums out of registers.
-template <int D, class K>
-template <bool corotational>
-EMP_ALWAYS_INLINE void Solver<D, K>::updateStress(int p, const St& st, double dt)
+template <int D, class K> EMP_ALWAYS_INLINE Mat<D> Solver<D, K>::velocityGradient(int p, const St& st) const
 {
-    // Velocity gradient L = sum v_I grad N_I and strain increment (Eq 27).
-    auto& P = points_;
+    // Velocity gradient L = sum v_I grad N_I (Eq 27).
     const auto& g = grid_;
     Mat<D> L = Mat<D>::Zero();
     if constexpr (K::gradientJumpsAtNodes) {
@@ -253,13 +250,22 @@ EMP_ALWAYS_INLINE void Solver<D, K>::updateStress(int p, const St& st, double dt
         // can be empty (velocity unknown, set to 0) at a free face, and a rigid motion would
         // strain. Such a node takes the point's own velocity, so that the gradients still sum
         // to zero. (A C1 kernel's gradient vanishes with its weight: it never meets that case.)
-        const Vec<D> vp = P.v[p];
+        const Vec<D> vp = points_.v[p];
         st.forEach(g, [&](int I, double, const Vec<D>& grad) {
             L.noalias() += (g.mass[I] > 0 ? g.velocity[I] : vp) * grad.transpose();
         });
     } else {
         st.forEach(g, [&](int I, double, const Vec<D>& grad) { L.noalias() += g.velocity[I] * grad.transpose(); });
     }
+    return L;
+}
+
+template <int D, class K>
+template <bool corotational>
+EMP_ALWAYS_INLINE void Solver<D, K>::updateStress(int p, const St& st, double dt)
+{
+    auto& P = points_;
+    const Mat<D> L = velocityGradient(p, st);
     if constexpr (corotational) {
         // L is the gradient at the points' new positions of the velocity that brought them
         // there, so the motion's gradient is (I - dt L)^-1 (Kinematics.hpp): exact for any field
@@ -270,17 +276,78 @@ EMP_ALWAYS_INLINE void Solver<D, K>::updateStress(int p, const St& st, double dt
         return;
     }
     Mat<D>& eps = P.strain[p];
-    eps += (0.5 * dt) * (L + L.transpose());
+    eps += (0.5 * dt) * (L + L.transpose());  // strain increment (Eq 27)
+}
+
+template <int D, class K> EMP_ALWAYS_INLINE void Solver<D, K>::lawAt(int p)
+{
     // The material's law (a compile-time policy, one switch per point): sigma = c sigma+ + sigma-
     // (Eq 7 with g(c) = c), psi+/psi- (Eqs 3-4) and the history H = max psi+ (Eq 22).
+    auto& P = points_;
     const ElasticMaterial& m = materials_[P.material[p]];
     withLaw(m.law, [&](auto law) {
-        const LawResponse<D> r = decltype(law)::template response<D>(eps, m);
+        const LawResponse<D> r = decltype(law)::template response<D>(P.strain[p], m);
         P.stress[p] = P.damage[p] * r.sigmaPlus + r.sigmaMinus;
         P.psiPlus[p] = r.psiPlus;
         P.psiMinus[p] = r.psiMinus;
         P.history[p] = std::max(P.history[p], r.psiPlus);
     });
+}
+
+template <int D, class K> EMP_ALWAYS_INLINE void Solver<D, K>::lawOfRun(const int* ids, int n)
+{
+    // The law for a run of points. In 2D, when the run's points share a law with the pointwise
+    // response (Law.hpp, response2), the law runs as one vectorised loop over the run: each lane
+    // takes one point through the same operations, so the results are bitwise those of lawAt,
+    // while the points' square roots and divisions go through the processor side by side.
+    auto& P = points_;
+    if constexpr (D == 2) {
+        const int law = materials_[P.material[ids[0]]].law;
+        bool same = true;
+        for (int i = 1; i < n; ++i) same = same && materials_[P.material[ids[i]]].law == law;
+        bool done = false;
+        if (same)
+            withLaw(law, [&](auto l) {
+                if constexpr (HasResponse2<decltype(l)>::value) {
+                    lawOfRun2<decltype(l)>(ids, n);
+                    done = true;
+                }
+            });
+        if (done) return;
+    }
+    for (int i = 0; i < n; ++i) lawAt(ids[i]);
+}
+
+template <int D, class K>
+template <class Law>
+EMP_ALWAYS_INLINE void Solver<D, K>::lawOfRun2(const int* ids, int n)
+{
+    auto& P = points_;
+    alignas(64) double e[4][stressRun], c[stressRun], lambda[stressRun], mu[stressRun];
+    alignas(64) double sigma[4][stressRun], psiPlus[stressRun], psiMinus[stressRun];
+    for (int i = 0; i < n; ++i) {  // the run's points in structure-of-arrays form
+        const int p = ids[i];
+        const Mat<D>& E = P.strain[p];
+        e[0][i] = E(0, 0);
+        e[1][i] = E(0, 1);
+        e[2][i] = E(1, 0);
+        e[3][i] = E(1, 1);
+        c[i] = P.damage[p];
+        const ElasticMaterial& m = materials_[P.material[p]];
+        lambda[i] = m.lambda;
+        mu[i] = m.mu;
+    }
+#pragma omp simd
+    for (int i = 0; i < n; ++i)
+        Law::response2(e[0][i], e[1][i], e[2][i], e[3][i], c[i], lambda[i], mu[i], sigma[0][i], sigma[1][i],
+                       sigma[2][i], sigma[3][i], psiPlus[i], psiMinus[i]);
+    for (int i = 0; i < n; ++i) {
+        const int p = ids[i];
+        P.stress[p] << sigma[0][i], sigma[1][i], sigma[2][i], sigma[3][i];
+        P.psiPlus[p] = psiPlus[i];
+        P.psiMinus[p] = psiMinus[i];
+        P.history[p] = std::max(P.history[p], psiPlus[i]);
+    }
 }
 
 template <int D, class K> EMP_ALWAYS_INLINE void Solver<D, K>::corotationalStress(int p)
@@ -334,9 +401,8 @@ EMP_ALWAYS_INLINE void Solver<D, K>::scatterInternalForce(int p, const St& st, c
 
 template <int D, class K> void Solver<D, K>::stressAndInternalForce(double dt, int nThreads)
 {
-    // In runs of points (Scheduler::scatterRuns): the stresses of a run, then its forces. The
-    // run's stencils stay in the L1 cache between the two loops.
-    constexpr int stressRun = 16;
+    // In runs of points (Scheduler::scatterRuns): the strains of a run, its law (lawOfRun), then
+    // its forces. The run's stencils stay in the L1 cache between the loops.
     const Vec<D> gravity = settings_.gravity.head<D>();
     const auto& order = schedule_.order();
     const std::vector<NodeField> fields{{grid_.force.data()->data(), D}};
@@ -345,6 +411,7 @@ template <int D, class K> void Solver<D, K>::stressAndInternalForce(double dt, i
     const auto pass = [&](auto withGravity, auto corotational) {
         schedule_.scatterRuns(nThreads, stressRun, [&](int begin, int end) {
             for (int k = begin; k < end; ++k) updateStress<decltype(corotational)::value>(order[k], stencil_[k], dt);
+            if constexpr (!decltype(corotational)::value) lawOfRun(&order[begin], end - begin);
             for (int k = begin; k < end; ++k)
                 scatterInternalForce<decltype(withGravity)::value, decltype(corotational)::value>(
                     order[k], stencil_[k], gravity);

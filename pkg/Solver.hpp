@@ -214,8 +214,18 @@ private:
     void accumulateExternalWork(double dt);
     void transportCracks(double dt);
 
-    // Per-point pieces of the fused stress/force pass.
+    // Per-point pieces of the fused stress/force pass, which runs in runs of stressRun points.
+    static constexpr int stressRun = 16;
+    /// Eq 27's velocity gradient at point p.
+    Mat<D> velocityGradient(int p, const St& st) const;
+    /// The strain increment of point p (small strain), or its co-rotational stress.
     template <bool corotational> void updateStress(int p, const St& st, double dt);
+    /// The law at point p: stress, psi+, psi-, history.
+    void lawAt(int p);
+    /// The law at the n <= stressRun points ids (lawAt for each, or lawOfRun2).
+    void lawOfRun(const int* ids, int n);
+    /// The law at n points at once, through the law's pointwise 2D response (Law.hpp).
+    template <class Law> void lawOfRun2(const int* ids, int n);
     /// The co-rotational update's stress of point p from its deformation gradient (Kinematics.hpp).
     void corotationalStress(int p);
     /// The Cauchy stress R s U R^T / J of a co-rotated stress s at point p's deformation gradient.

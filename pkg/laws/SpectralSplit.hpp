@@ -17,27 +17,61 @@ struct SpectralSplit {
     static constexpr const char* name = "spectral";
     static constexpr Compression tensionFree = Compression::allPrincipal;
 
-    /// Principal strains l and the tensile part eps+ (Eq 5). Fast paths avoid the eigenvectors
-    /// when all principal strains have one sign, which is nearly every point in most scenes.
+    /// Principal strains l and the tensile part eps+ (Eq 5) in 2D (tensilePart2 below).
     static void tensilePart(const Mat<2>& e, Vec<2>& l, Mat<2>& ep)
     {
-        const double m = 0.5 * (e(0, 0) + e(1, 1));
-        const double d = 0.5 * (e(0, 0) - e(1, 1));
-        const double r = std::sqrt(d * d + e(0, 1) * e(0, 1));
-        l << m + r, m - r;
+        tensilePart2(e(0, 0), e(0, 1), e(1, 0), e(1, 1), l(0), l(1), ep(0, 0), ep(0, 1), ep(1, 0), ep(1, 1));
+    }
+
+    /// The 2D tensile part on plain numbers: eps = (exx, exy; eyx, eyy) gives the principal
+    /// strains l0 >= l1 and eps+ = (pxx, pxy; pyx, pyy). Plain numbers and no branch, so that the
+    /// solver can evaluate it for several points at once in a vectorised loop (response2): in a
+    /// cracking or vibrating body the sign pattern changes from point to point.
+    EMP_ALWAYS_INLINE static void tensilePart2(double exx, double exy, double eyx, double eyy, double& l0, double& l1,
+                                               double& pxx, double& pxy, double& pyx, double& pyy)
+    {
+        const double m = 0.5 * (exx + eyy);
+        const double d = 0.5 * (exx - eyy);
+        const double r = std::sqrt(d * d + exy * exy);
+        l0 = m + r;
+        l1 = m - r;
         // Both principal strains >= 0: eps+ = eps; both <= 0: 0; else l0 > 0 > l1, the values
-        // differ and the projector on n0 is (e - l1 I)/(l0 - l1). Written as selects rather than
-        // branches: in a cracking or vibrating body the sign pattern changes from point to point
-        // and a branch would be mispredicted often. (The quotient of the unused case is never
-        // read; its denominator is kept nonzero.)
-        const bool allTensile = l(1) >= 0, allCompressive = l(0) <= 0;
-        const double q = l(0) / (allTensile || allCompressive ? 1.0 : l(0) - l(1));
+        // differ and the projector on n0 is (e - l1 I)/(l0 - l1). (The quotient of the unused
+        // cases is never read; its denominator is kept nonzero.)
+        const bool allTensile = l1 >= 0, allCompressive = l0 <= 0;
+        const bool oneSign = allTensile | allCompressive;
+        const double q = l0 / (oneSign ? 1.0 : l0 - l1);
         const double s = allTensile ? 1.0 : allCompressive ? 0.0 : q;
-        const double shift = allTensile || allCompressive ? 0.0 : l(1);
-        ep(0, 0) = s * (e(0, 0) - shift);
-        ep(1, 1) = s * (e(1, 1) - shift);
-        ep(0, 1) = s * e(0, 1);
-        ep(1, 0) = s * e(1, 0);
+        const double shift = oneSign ? 0.0 : l1;
+        pxx = s * (exx - shift);
+        pyy = s * (eyy - shift);
+        pxy = s * exy;
+        pyx = s * eyx;
+    }
+
+    /// The 2D response on plain numbers (Law.hpp, "pointwise 2D response"): at strain eps =
+    /// (exx, exy; eyx, eyy) and damage c, the stress c sigma+ + sigma- = (sxx, sxy; syx, syy),
+    /// psi+ and psi-. Bitwise response<2> followed by the solver's degradation.
+    EMP_ALWAYS_INLINE static void response2(double exx, double exy, double eyx, double eyy, double c, double lambda,
+                                            double mu, double& sxx, double& sxy, double& syx, double& syy,
+                                            double& psiPlus, double& psiMinus)
+    {
+        double l0, l1, pxx, pxy, pyx, pyy;
+        tensilePart2(exx, exy, eyx, eyy, l0, l1, pxx, pxy, pyx, pyy);
+        const double tr = exx + eyy;
+        double sp2 = 0, sm2 = 0;
+        sp2 += positivePart(l0) * positivePart(l0);
+        sm2 += negativePart(l0) * negativePart(l0);
+        sp2 += positivePart(l1) * positivePart(l1);
+        sm2 += negativePart(l1) * negativePart(l1);
+        psiPlus = 0.5 * lambda * positivePart(tr) * positivePart(tr) + mu * sp2;   // Eq 3
+        psiMinus = 0.5 * lambda * negativePart(tr) * negativePart(tr) + mu * sm2;  // Eq 4
+        // Eq 7: lambda <tr>+- I + 2 mu eps+-, the identity's zeros multiplied as in response<2>.
+        const double lp = lambda * positivePart(tr), lm = lambda * negativePart(tr), twoMu = 2.0 * mu;
+        sxx = c * (lp * 1.0 + twoMu * pxx) + (lm * 1.0 + twoMu * (exx - pxx));
+        sxy = c * (lp * 0.0 + twoMu * pxy) + (lm * 0.0 + twoMu * (exy - pxy));
+        syx = c * (lp * 0.0 + twoMu * pyx) + (lm * 0.0 + twoMu * (eyx - pyx));
+        syy = c * (lp * 1.0 + twoMu * pyy) + (lm * 1.0 + twoMu * (eyy - pyy));
     }
 
     static void tensilePart(const Mat<3>& e, Vec<3>& l, Mat<3>& ep)

@@ -9,7 +9,10 @@
 //   - an eroded point keeps sigma-, which never pulls (negative semi-definite for nu >= 0);
 //   - in the solver: the patch test (a homogeneous strain gives the law's stress at every
 //     point) and a compressed block with a tiny Gc never erodes when the law promises it.
+#include <cstdint>
+#include <cstring>
 #include <type_traits>
+#include <vector>
 
 #include "Laws.hpp"
 #include "laws/TemplateLaw.hpp"
@@ -179,6 +182,64 @@ template <class L, int D> void erodedStressNeverPulls(std::mt19937& rng, const C
     }
 }
 
+/// The bits of a double (a signed zero differs from the other, a NaN equals itself).
+std::uint64_t bits(double x)
+{
+    std::uint64_t b;
+    std::memcpy(&b, &x, sizeof b);
+    return b;
+}
+
+/// 2D strains that take every path of a split: random ones of both signs and sizes, unequal
+/// off-diagonal terms, the sign patterns one by one, repeated principal strains, zeros.
+std::vector<Mat<2>> testStrains2D(std::mt19937& rng)
+{
+    std::vector<Mat<2>> out;
+    std::uniform_real_distribution<double> u(-1, 1);
+    for (int i = 0; i < 3000; ++i) {
+        Mat<2> e = emptest::randomSymmetric<2>(rng, i % 3 == 0 ? 1e-3 : i % 3 == 1 ? 1.0 : 1e-200);
+        if (i % 5 == 0) e(1, 0) += 1e-3 * e.norm() * u(rng);  // not quite symmetric
+        out.push_back(e);
+    }
+    Mat<2> e;
+    for (double a : {-2.0, -0.0, 0.0, 1e-300, 3.0})
+        for (double b : {-1.0, -0.0, 0.0, 2.0})
+            for (double s : {0.0, -0.0, 0.5}) {
+                e << a, s, s, b;
+                out.push_back(e);
+            }
+    return out;
+}
+
+TYPED_TEST(LawTest, PointwiseResponseIsBitwiseTheResponse2D)
+{
+    // A law's optional response2 (Law.hpp) is what the solver evaluates for runs of points;
+    // response<2> is what every other stage uses. They must agree to the last bit.
+    if constexpr (!emp::HasResponse2<TypeParam>::value) {
+        GTEST_SKIP() << TypeParam::name << " has no pointwise 2D response";
+    } else {
+        std::mt19937 rng(23);
+        const auto strains = testStrains2D(rng);
+        for (const Case& cs : kCases) {
+            if (cs.dim != 2) continue;
+            for (std::size_t i = 0; i < strains.size(); ++i) {
+                const ElasticMaterial m = material(rng, cs);
+                const Mat<2>& e = strains[i];
+                const double c = i % 4 == 0 ? 0.0 : i % 4 == 1 ? 1.0 : std::uniform_real_distribution<double>(0, 1)(rng);
+                const auto r = TypeParam::template response<2>(e, m);
+                const Mat<2> sigma = c * r.sigmaPlus + r.sigmaMinus;  // as the solver degrades it
+                Mat<2> s;
+                double pp, pm;
+                TypeParam::response2(e(0, 0), e(0, 1), e(1, 0), e(1, 1), c, m.lambda, m.mu, s(0, 0), s(0, 1), s(1, 0),
+                                     s(1, 1), pp, pm);
+                for (int k = 0; k < 4; ++k) EXPECT_EQ(bits(s(k)), bits(sigma(k))) << cs.name << "\n" << e << "\nc = " << c;
+                EXPECT_EQ(bits(pp), bits(r.psiPlus)) << cs.name << "\n" << e;
+                EXPECT_EQ(bits(pm), bits(r.psiMinus)) << cs.name << "\n" << e;
+            }
+        }
+    }
+}
+
 TYPED_TEST(LawTest, StressOfAnErodedPointNeverPulls)
 {
     std::mt19937 rng(15);
@@ -320,4 +381,37 @@ TEST(SpectralSplit3D, StrainsNearTheUnderflowLimitStayFinite)
     emp::SpectralSplit::tensilePart(std::ldexp(1.0, 1000) * s, lBig, epBig);
     // (to the precision a subnormal carries: about 25 significant bits at 1e-316)
     EXPECT_LE((std::ldexp(1.0, 1000) * ep - epBig).cwiseAbs().maxCoeff(), 1e-5 * epBig.cwiseAbs().maxCoeff());
+}
+
+namespace {
+/// The 2D tensile part as first written with Eigen (selects on the principal strains): the plain
+/// reference of SpectralSplit::tensilePart2, which the solver runs for several points at once.
+void referenceTensilePart(const Mat<2>& e, Vec<2>& l, Mat<2>& ep)
+{
+    const double m = 0.5 * (e(0, 0) + e(1, 1));
+    const double d = 0.5 * (e(0, 0) - e(1, 1));
+    const double r = std::sqrt(d * d + e(0, 1) * e(0, 1));
+    l << m + r, m - r;
+    const bool allTensile = l(1) >= 0, allCompressive = l(0) <= 0;
+    const double q = l(0) / (allTensile || allCompressive ? 1.0 : l(0) - l(1));
+    const double s = allTensile ? 1.0 : allCompressive ? 0.0 : q;
+    const double shift = allTensile || allCompressive ? 0.0 : l(1);
+    ep(0, 0) = s * (e(0, 0) - shift);
+    ep(1, 1) = s * (e(1, 1) - shift);
+    ep(0, 1) = s * e(0, 1);
+    ep(1, 0) = s * e(1, 0);
+}
+}  // namespace
+
+TEST(SpectralSplit2D, TensilePartIsBitwiseThePlainReference)
+{
+    std::mt19937 rng(29);
+    for (const Mat<2>& e : testStrains2D(rng)) {
+        Vec<2> l, lr;
+        Mat<2> ep, epr;
+        emp::SpectralSplit::tensilePart(e, l, ep);
+        referenceTensilePart(e, lr, epr);
+        for (int k = 0; k < 2; ++k) EXPECT_EQ(bits(l(k)), bits(lr(k))) << e;
+        for (int k = 0; k < 4; ++k) EXPECT_EQ(bits(ep(k)), bits(epr(k))) << e;
+    }
 }
