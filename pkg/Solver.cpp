@@ -244,20 +244,16 @@ template <int D, class K> EMP_ALWAYS_INLINE Mat<D> Solver<D, K>::velocityGradien
 {
     // Velocity gradient L = sum v_I grad N_I (Eq 27).
     const auto& g = grid_;
-    Mat<D> L = Mat<D>::Zero();
     if constexpr (K::gradientJumpsAtNodes) {
         // A point exactly on a node has weight 0 there but gradient +-1/h on the next node, which
         // can be empty (velocity unknown, set to 0) at a free face, and a rigid motion would
         // strain. Such a node takes the point's own velocity, so that the gradients still sum
         // to zero. (A C1 kernel's gradient vanishes with its weight: it never meets that case.)
         const Vec<D> vp = points_.v[p];
-        st.forEach(g, [&](int I, double, const Vec<D>& grad) {
-            L.noalias() += (g.mass[I] > 0 ? g.velocity[I] : vp) * grad.transpose();
-        });
+        return st.gradientOf(g, [&](int I) { return g.mass[I] > 0 ? g.velocity[I] : vp; });
     } else {
-        st.forEach(g, [&](int I, double, const Vec<D>& grad) { L.noalias() += g.velocity[I] * grad.transpose(); });
+        return st.gradientOf(g, [&](int I) { return g.velocity[I]; });
     }
-    return L;
 }
 
 template <int D, class K>
@@ -393,9 +389,9 @@ EMP_ALWAYS_INLINE void Solver<D, K>::scatterInternalForce(int p, const St& st, c
     const Mat<D> vs = volume * points_.stress[p];
     if constexpr (withGravity) {
         const Vec<D> fb = points_.mass[p] * gravity;
-        st.forEach(g, [&](int I, double N, const Vec<D>& grad) { g.force[I] += N * fb - vs * grad; });
+        st.forEachProjected(g, vs, [&](int I, double N, const Vec<D>& vsGrad) { g.force[I] += N * fb - vsGrad; });
     } else {
-        st.forEach(g, [&](int I, double, const Vec<D>& grad) { g.force[I] -= vs * grad; });
+        st.forEachProjected(g, vs, [&](int I, double, const Vec<D>& vsGrad) { g.force[I] -= vsGrad; });
     }
 }
 
@@ -458,7 +454,7 @@ template <int D, class K> void Solver<D, K>::erode(double dt, int nThreads)
         }
         const Mat<D> dvs = volume * (points_.stress[p] - before[e]);
         const std::int64_t id = dist_ ? points_.globalId[p] : p;
-        st.forEach(g, [&](int I, double, const Vec<D>& grad) { addNodeForce(I, -(dvs * grad), 0, id); });
+        st.forEachProjected(g, dvs, [&](int I, double, const Vec<D>& dvsGrad) { addNodeForce(I, -dvsGrad, 0, id); });
     }
 }
 

@@ -111,6 +111,88 @@ template <int D, class K> struct Stencil {
         });
     }
 
+    /// The node indices of the support, in forEach's order (x fastest): from the base node, or
+    /// near a pre-existing crack from the remap table (phantom twins).
+    EMP_ALWAYS_INLINE void nodes(const Grid<D>& g, int* node) const
+    {
+        for (int k = 0; k < NS; ++k) node[k] = remap >= 0 ? g.remap[remap + k] : regularNode(g, k);
+    }
+
+    /// sum_I v(I) grad N_I^T for the nodal values v(I) (Eq 27's velocity gradient). grad N is a
+    /// tensor product of the 1D weights and derivatives, so the sums run direction by direction:
+    /// the inner sums over x serve two (2D) or three (3D) columns.
+    template <class V> EMP_ALWAYS_INLINE Mat<D> gradientOf(const Grid<D>& g, V&& v) const
+    {
+        int node[NS];
+        nodes(g, node);
+        Mat<D> L;
+        if constexpr (D == 2) {
+            Vec<2> c0 = Vec<2>::Zero(), c1 = Vec<2>::Zero();
+            for (int j = 0; j < S; ++j) {
+                Vec<2> a = Vec<2>::Zero(), b = Vec<2>::Zero();
+                for (int i = 0; i < S; ++i) {
+                    const Vec<2> vi = v(node[i + S * j]);
+                    a += dw[0][i] * vi;
+                    b += w[0][i] * vi;
+                }
+                c0 += w[1][j] * a;
+                c1 += dw[1][j] * b;
+            }
+            L.col(0) = g.invh * c0;
+            L.col(1) = g.invh * c1;
+        } else {
+            Vec<3> c0 = Vec<3>::Zero(), c1 = Vec<3>::Zero(), c2 = Vec<3>::Zero();
+            for (int k = 0; k < S; ++k) {
+                Vec<3> A = Vec<3>::Zero(), B = Vec<3>::Zero(), C = Vec<3>::Zero();
+                for (int j = 0; j < S; ++j) {
+                    Vec<3> a = Vec<3>::Zero(), b = Vec<3>::Zero();
+                    for (int i = 0; i < S; ++i) {
+                        const Vec<3> vi = v(node[i + S * (j + S * k)]);
+                        a += dw[0][i] * vi;
+                        b += w[0][i] * vi;
+                    }
+                    A += w[1][j] * a;
+                    B += dw[1][j] * b;
+                    C += w[1][j] * b;
+                }
+                c0 += w[2][k] * A;
+                c1 += w[2][k] * B;
+                c2 += dw[2][k] * C;
+            }
+            L.col(0) = g.invh * c0;
+            L.col(1) = g.invh * c1;
+            L.col(2) = g.invh * c2;
+        }
+        return L;
+    }
+
+    /// Calls f(node index, N, M grad N) for every support node in forEach's order, for a matrix M
+    /// (the stress pass's V sigma): the products factored by direction, about half the
+    /// multiplications of forming grad N and then M grad N.
+    template <class F> EMP_ALWAYS_INLINE void forEachProjected(const Grid<D>& g, const Mat<D>& M, F&& f) const
+    {
+        int node[NS];
+        nodes(g, node);
+        Vec<D> a[S], b[S];
+        for (int i = 0; i < S; ++i) {
+            a[i] = (dw[0][i] * g.invh) * M.col(0);
+            b[i] = (w[0][i] * g.invh) * M.col(1);
+        }
+        if constexpr (D == 2) {
+            for (int j = 0; j < S; ++j)
+                for (int i = 0; i < S; ++i) f(node[i + S * j], w[0][i] * w[1][j], Vec<2>(w[1][j] * a[i] + dw[1][j] * b[i]));
+        } else {
+            Vec<3> c[S];
+            for (int i = 0; i < S; ++i) c[i] = (w[0][i] * g.invh) * M.col(2);
+            for (int k = 0; k < S; ++k)
+                for (int j = 0; j < S; ++j) {
+                    const double p = w[1][j] * w[2][k], q = dw[1][j] * w[2][k], r = w[1][j] * dw[2][k];
+                    for (int i = 0; i < S; ++i)
+                        f(node[i + S * (j + S * k)], w[0][i] * p, Vec<3>(p * a[i] + q * b[i] + r * c[i]));
+                }
+        }
+    }
+
     /// Calls f(node index, N, grad N) for every support node, in a fixed order.
     template <class F> EMP_ALWAYS_INLINE void forEach(const Grid<D>& g, F&& f) const
     {
@@ -118,7 +200,7 @@ template <int D, class K> struct Stencil {
         // (phantom twins). Gathering them first keeps one copy of f's body, so that the compiler
         // inlines forEach and f into each pass and keeps the pass's sums in registers.
         int node[NS];
-        for (int k = 0; k < NS; ++k) node[k] = remap >= 0 ? g.remap[remap + k] : regularNode(g, k);
+        nodes(g, node);
         if constexpr (D == 2) {
             for (int j = 0; j < S; ++j)
                 for (int i = 0; i < S; ++i)

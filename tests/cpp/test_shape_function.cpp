@@ -4,6 +4,7 @@
 // consistency of the derivatives with finite differences.
 #include <map>
 
+#include "Stencil.hpp"
 #include "test_helpers.hpp"
 
 namespace {
@@ -332,3 +333,57 @@ TYPED_TEST(KernelTest, GradientMatchesFiniteDifference2D) { checkGradientByFinit
 TYPED_TEST(KernelTest, GradientMatchesFiniteDifference3D) { checkGradientByFiniteDifference<3, TypeParam>(63); }
 
 }  // namespace
+
+/// The factored sums of the stress pass (Stencil::gradientOf, Stencil::forEachProjected) against
+/// their plain forms through forEach: sum v_I grad N_I^T and M grad N_I node by node, to
+/// round-off, on the regular lattice and on a support remapped to other node indices (twins).
+template <class C> struct StencilSumsTest : ::testing::Test {};
+TYPED_TEST_SUITE(StencilSumsTest, emptest::AllSolvers);
+
+TYPED_TEST(StencilSumsTest, FactoredSumsAreThePlainSumsToRoundOff)
+{
+    constexpr int D = TypeParam::D;
+    using K = typename TypeParam::K;
+    using St = emp::Stencil<D, K>;
+    std::mt19937 rng(67);
+    std::uniform_real_distribution<double> u(-1, 1), ux(3.0, 6.0);
+    emp::Grid<D> g;
+    std::array<int, D> n;
+    n.fill(12);
+    g.resize(Vec<D>::Constant(-0.3), 0.7, n);
+    g.setTwins(St::NS);
+    for (auto& v : g.velocity)
+        for (int d = 0; d < D; ++d) v[d] = u(rng);
+    g.remap.resize(St::NS);
+    for (int k = 0; k < St::NS; ++k) g.remap[k] = g.numNodes() + (k * 7) % St::NS;  // a permutation of the twins
+    for (int i = 0; i < 400; ++i) {
+        Vec<D> x;
+        for (int d = 0; d < D; ++d) x[d] = g.origin[d] + ux(rng) * g.h;
+        if (i < 3) x = g.origin + (3.0 + 0.5 * i) * g.h * Vec<D>::Ones();  // on nodes and cell middles
+        St st;
+        st.compute(x, g, 0.25);
+        if (i % 2) st.remap = 0;
+        Mat<D> M;
+        for (int r = 0; r < D; ++r)
+            for (int c = 0; c < D; ++c) M(r, c) = u(rng);
+        Mat<D> plain = Mat<D>::Zero();
+        std::vector<Vec<D>> plainM;
+        st.forEach(g, [&](int I, double, const Vec<D>& grad) {
+            plain.noalias() += g.velocity[I] * grad.transpose();
+            plainM.push_back(M * grad);
+        });
+        const Mat<D> L = st.gradientOf(g, [&](int I) { return g.velocity[I]; });
+        EXPECT_LT((L - plain).cwiseAbs().maxCoeff(), 1e-14 * g.invh) << "x = " << x.transpose();
+        std::size_t k = 0;
+        st.forEachProjected(g, M, [&](int, double, const Vec<D>& mg) {
+            EXPECT_LT((mg - plainM[k]).cwiseAbs().maxCoeff(), 1e-14 * g.invh) << "x = " << x.transpose() << ", node " << k;
+            ++k;
+        });
+        EXPECT_EQ(k, plainM.size());
+        // Same nodes and weights in the same order as forEach.
+        std::vector<std::pair<int, double>> a, b;
+        st.forEach(g, [&](int I, double N, const Vec<D>&) { a.emplace_back(I, N); });
+        st.forEachProjected(g, M, [&](int I, double N, const Vec<D>&) { b.emplace_back(I, N); });
+        EXPECT_EQ(a, b);
+    }
+}
