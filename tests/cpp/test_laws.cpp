@@ -415,3 +415,35 @@ TEST(SpectralSplit2D, TensilePartIsBitwiseThePlainReference)
         for (int k = 0; k < 4; ++k) EXPECT_EQ(bits(ep(k)), bits(epr(k))) << e;
     }
 }
+
+/// After a step of a vibrating 2D block, every point's stress, psi+, psi- are bitwise those of its
+/// material's law at its strain (degraded by its damage): whether the stress pass evaluated the
+/// law for a whole run of points at once (a run whose points share a law with response2) or
+/// point by point (a run mixing laws: blocks side by side put several in one strip).
+TEST(LawInTheSolver, RunsOfPointsGiveEachPointItsOwnLawBitwise)
+{
+    emp::Solver<2, emp::GimpKernel> s(emptest::typicalSettings(0.01, 2));
+    const int spectral = emp::lawIndex("spectral"), volumetric = emp::lawIndex("volumetric");
+    const int m0 = s.addMaterial(2e7, 0.25, 1000, false, spectral);
+    const int m1 = s.addMaterial(3e7, 0.2, 1200, true, volumetric);
+    const int m2 = s.addMaterial(1e7, 0.3, 900, true, spectral);
+    const auto vel = [](const Vec<2>& x) { return Vec<2>(std::sin(40 * x[1]), std::cos(30 * x[0]) - 0.5); };
+    emptest::addBlock<2>(s, {3, 3}, {6, 9}, m0, vel);
+    emptest::addBlock<2>(s, {6, 3}, {7, 9}, m1, vel);
+    emptest::addBlock<2>(s, {7, 3}, {12, 9}, m2, vel);
+    s.initialize();
+    auto& P = s.points();
+    for (std::size_t p = 0; p < P.size(); p += 3) P.damage[p] = 0.5 * (p % 2);  // some damaged or eroded
+    const double dt = 0.5 * s.criticalTimeStep();
+    for (int k = 0; k < 3; ++k) s.step(dt, 1);
+    int tensile = 0;
+    for (std::size_t p = 0; p < P.size(); ++p) {
+        const auto r = emp::lawResponse<2>(P.strain[p], s.materials()[P.material[p]]);
+        const Mat<2> sigma = P.damage[p] * r.sigmaPlus + r.sigmaMinus;
+        for (int k = 0; k < 4; ++k) ASSERT_EQ(bits(P.stress[p](k)), bits(sigma(k))) << "point " << p;
+        ASSERT_EQ(bits(P.psiPlus[p]), bits(r.psiPlus)) << "point " << p;
+        ASSERT_EQ(bits(P.psiMinus[p]), bits(r.psiMinus)) << "point " << p;
+        tensile += r.psiPlus > 0 && r.psiMinus > 0;
+    }
+    EXPECT_GT(tensile, 10);  // mixed states: the split's every case is met
+}
