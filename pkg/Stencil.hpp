@@ -126,15 +126,11 @@ template <int D, class K> struct Stencil {
         int node[NS];
         nodes(g, node);
         Mat<D> L;
+        Vec<D> a, b;  // the sums over x of one row of the support (rowSums)
         if constexpr (D == 2) {
             Vec<2> c0 = Vec<2>::Zero(), c1 = Vec<2>::Zero();
             for (int j = 0; j < S; ++j) {
-                Vec<2> a = Vec<2>::Zero(), b = Vec<2>::Zero();
-                for (int i = 0; i < S; ++i) {
-                    const Vec<2> vi = v(node[i + S * j]);
-                    a += dw[0][i] * vi;
-                    b += w[0][i] * vi;
-                }
+                rowSums(node + S * j, v, a, b);
                 c0 += w[1][j] * a;
                 c1 += dw[1][j] * b;
             }
@@ -145,12 +141,7 @@ template <int D, class K> struct Stencil {
             for (int k = 0; k < S; ++k) {
                 Vec<3> A = Vec<3>::Zero(), B = Vec<3>::Zero(), C = Vec<3>::Zero();
                 for (int j = 0; j < S; ++j) {
-                    Vec<3> a = Vec<3>::Zero(), b = Vec<3>::Zero();
-                    for (int i = 0; i < S; ++i) {
-                        const Vec<3> vi = v(node[i + S * (j + S * k)]);
-                        a += dw[0][i] * vi;
-                        b += w[0][i] * vi;
-                    }
+                    rowSums(node + S * (j + S * k), v, a, b);
                     A += w[1][j] * a;
                     B += dw[1][j] * b;
                     C += w[1][j] * b;
@@ -164,6 +155,19 @@ template <int D, class K> struct Stencil {
             L.col(2) = g.invh * c2;
         }
         return L;
+    }
+
+    /// a = sum_i dw_x,i v(row[i]) and b = sum_i w_x,i v(row[i]) over the S nodes of one row
+    /// (gradientOf).
+    template <class V> EMP_ALWAYS_INLINE void rowSums(const int* row, V&& v, Vec<D>& a, Vec<D>& b) const
+    {
+        a.setZero();
+        b.setZero();
+        for (int i = 0; i < S; ++i) {
+            const Vec<D> vi = v(row[i]);
+            a += dw[0][i] * vi;
+            b += w[0][i] * vi;
+        }
     }
 
     /// Calls f(node index, N, M grad N) for every support node in forEach's order, for a matrix M
