@@ -256,37 +256,23 @@ template <int D, class K> EMP_ALWAYS_INLINE Mat<D> Solver<D, K>::velocityGradien
     }
 }
 
-template <int D, class K> EMP_ALWAYS_INLINE void Solver<D, K>::strainIncrement(int p, const St& st, double dt)
-{
-    const Mat<D> L = velocityGradient(p, st);
-    points_.strain[p] += (0.5 * dt) * (L + L.transpose());  // Eq 27
-}
-
 template <int D, class K>
-EMP_ALWAYS_INLINE bool Solver<D, K>::corotationalStrain(int p, const St& st, double dt, Mat<D>& R, Mat<D>& U)
+template <bool corotational>
+EMP_ALWAYS_INLINE void Solver<D, K>::updateStress(int p, const St& st, double dt)
 {
-    // L is the gradient at the points' new positions of the velocity that brought them there, so
-    // the motion's gradient is (I - dt L)^-1 (Kinematics.hpp): exact for any field the transfer
-    // carries, a rigid rotation included. F = R U; the law and its split then act on the
-    // co-rotated strain eps = U - I (Eq 7, 3-4, 22 unchanged in the co-rotated frame), and the
-    // stress is rotated back (rotateStress). A degenerate F (an inverted or collapsed point)
-    // returns false and leaves the strain as it was.
     auto& P = points_;
     const Mat<D> L = velocityGradient(p, st);
-    Mat<D>& F = P.deformationGradient[p];
-    F = (Mat<D>::Identity() - dt * L).inverse() * F;
-    if (!polarDecomposition(F, R, U)) return false;
-    P.strain[p] = U - Mat<D>::Identity();
-    return true;
-}
-
-template <int D, class K>
-EMP_ALWAYS_INLINE void Solver<D, K>::rotateStress(int p, bool ok, const Mat<D>& R, const Mat<D>& U)
-{
-    // The law's co-rotated stress to the Cauchy stress R s U R^T / J; a degenerate F gives a NaN
-    // stress, which the step's check reports with the point's id.
-    auto& P = points_;
-    P.stress[p] = ok ? cauchyStress<D>(R, U, P.stress[p]) : Mat<D>::Constant(std::numeric_limits<double>::quiet_NaN());
+    if constexpr (corotational) {
+        // L is the gradient at the points' new positions of the velocity that brought them
+        // there, so the motion's gradient is (I - dt L)^-1 (Kinematics.hpp): exact for any field
+        // the transfer carries, a rigid rotation included.
+        Mat<D>& F = P.deformationGradient[p];
+        F = (Mat<D>::Identity() - dt * L).inverse() * F;
+        corotationalStress(p);
+        return;
+    }
+    Mat<D>& eps = P.strain[p];
+    eps += (0.5 * dt) * (L + L.transpose());  // strain increment (Eq 27)
 }
 
 template <int D, class K> EMP_ALWAYS_INLINE void Solver<D, K>::lawAt(int p)
@@ -360,6 +346,29 @@ EMP_ALWAYS_INLINE void Solver<D, K>::lawOfRun2(const int* ids, int n)
     }
 }
 
+template <int D, class K> EMP_ALWAYS_INLINE void Solver<D, K>::corotationalStress(int p)
+{
+    // F = R U; the law and its split on eps = U - I (Eq 7, 3-4, 22 unchanged in the co-rotated
+    // frame); the stress rotated back (Kinematics.hpp). A degenerate F (inverted or collapsed
+    // point) gives a NaN stress, which the step's check reports with the point's id.
+    auto& P = points_;
+    Mat<D> R, U;
+    if (!polarDecomposition(P.deformationGradient[p], R, U)) {
+        P.stress[p].setConstant(std::numeric_limits<double>::quiet_NaN());
+        return;
+    }
+    const Mat<D> eps = U - Mat<D>::Identity();
+    P.strain[p] = eps;
+    const ElasticMaterial& m = materials_[P.material[p]];
+    withLaw(m.law, [&](auto law) {
+        const LawResponse<D> r = decltype(law)::template response<D>(eps, m);
+        P.stress[p] = cauchyStress<D>(R, U, P.damage[p] * r.sigmaPlus + r.sigmaMinus);
+        P.psiPlus[p] = r.psiPlus;
+        P.psiMinus[p] = r.psiMinus;
+        P.history[p] = std::max(P.history[p], r.psiPlus);
+    });
+}
+
 template <int D, class K> Mat<D> Solver<D, K>::spatialStress(int p, const Mat<D>& s) const
 {
     Mat<D> R, U;
@@ -397,16 +406,8 @@ template <int D, class K> void Solver<D, K>::stressAndInternalForce(double dt, i
     if (dist_) between = [&] { dist_->afterFirstColour(grid_, fields); };
     const auto pass = [&](auto withGravity, auto corotational) {
         schedule_.scatterRuns(nThreads, stressRun, [&](int begin, int end) {
-            if constexpr (decltype(corotational)::value) {
-                Mat<D> R[stressRun], U[stressRun];
-                bool ok[stressRun];
-                for (int k = begin; k < end; ++k) ok[k - begin] = corotationalStrain(order[k], stencil_[k], dt, R[k - begin], U[k - begin]);
-                lawOfRun(&order[begin], end - begin);
-                for (int k = begin; k < end; ++k) rotateStress(order[k], ok[k - begin], R[k - begin], U[k - begin]);
-            } else {
-                for (int k = begin; k < end; ++k) strainIncrement(order[k], stencil_[k], dt);
-                lawOfRun(&order[begin], end - begin);
-            }
+            for (int k = begin; k < end; ++k) updateStress<decltype(corotational)::value>(order[k], stencil_[k], dt);
+            if constexpr (!decltype(corotational)::value) lawOfRun(&order[begin], end - begin);
             for (int k = begin; k < end; ++k)
                 scatterInternalForce<decltype(withGravity)::value, decltype(corotational)::value>(
                     order[k], stencil_[k], gravity);

@@ -218,19 +218,16 @@ private:
     static constexpr int stressRun = 16;
     /// Eq 27's velocity gradient at point p.
     Mat<D> velocityGradient(int p, const St& st) const;
-    /// The small-strain increment of point p (Eq 27).
-    void strainIncrement(int p, const St& st, double dt);
-    /// The co-rotational update of point p: F, its polar decomposition F = R U and the strain
-    /// U - I; false (strain unchanged) when F is degenerate.
-    bool corotationalStrain(int p, const St& st, double dt, Mat<D>& R, Mat<D>& U);
-    /// Point p's stress from the law's co-rotated stress (or NaN when ok is false).
-    void rotateStress(int p, bool ok, const Mat<D>& R, const Mat<D>& U);
+    /// The strain increment of point p (small strain), or its co-rotational stress.
+    template <bool corotational> void updateStress(int p, const St& st, double dt);
     /// The law at point p: stress, psi+, psi-, history.
     void lawAt(int p);
     /// The law at the n <= stressRun points ids (lawAt for each, or lawOfRun2).
     void lawOfRun(const int* ids, int n);
     /// The law at n points at once, through the law's pointwise 2D response (Law.hpp).
     template <class Law> void lawOfRun2(const int* ids, int n);
+    /// The co-rotational update's stress of point p from its deformation gradient (Kinematics.hpp).
+    void corotationalStress(int p);
     /// The Cauchy stress R s U R^T / J of a co-rotated stress s at point p's deformation gradient.
     Mat<D> spatialStress(int p, const Mat<D>& s) const;
     template <bool withGravity, bool corotational>
