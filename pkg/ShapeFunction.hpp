@@ -17,6 +17,8 @@
 #pragma once
 #include <cmath>
 
+#include "Inline.hpp"
+
 namespace emp {
 
 /// W doubles as one vector (GCC/Clang vector extensions: element-wise arithmetic, comparisons
@@ -107,7 +109,7 @@ struct GimpKernel {
 private:
     /// evalAll for `count` (1 or 2) directions, one per lane of a two-double vector (an SSE2
     /// register: wider vectors of generic code are split badly on the baseline x86-64 target).
-    static inline void evalPair(const double* xi, int count, double lp, int* base, double (*w)[S], double (*dw)[S])
+    EMP_ALWAYS_INLINE static void evalPair(const double* xi, int count, double lp, int* base, double (*w)[S], double (*dw)[S])
     {
         using V = Lanes<2>::type;
         V x = {}, first = {};  // xi and the index of the first support node, per lane
