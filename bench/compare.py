@@ -8,6 +8,7 @@ that keeps the arithmetic keeps them.
 
     /usr/bin/python3.11 bench/compare.py OLD NEW [--rounds 7] [--cases gimp2,gimp3]
         [--sizes 1e5] [--size3d 1e5] [--threads 1] [--min-time 2] [--steps N] [--metric cpu]
+        [--bench-args "--transfer APIC --stress-update corotational"]
 
 --metric cpu rates each run by its CPU time (points x steps / CPU seconds) instead of its wall
 time: on one thread it is much less sensitive to other jobs on a shared machine (they still
@@ -20,6 +21,7 @@ Exit status 1 when a checksum differs.
 import argparse
 import json
 import os
+import shlex
 import statistics
 import subprocess
 import sys
@@ -51,6 +53,7 @@ def measure(exe, a):
     cmd = [exe, "--sizes", a.sizes, "--size3d", a.size3d, "--threads", a.threads, "--cases", a.cases,
            "--warmup", "2"]
     cmd += ["--steps", str(a.steps)] if a.steps else ["--min-time", str(a.min_time)]
+    cmd += shlex.split(a.bench_args)
     out = run(cmd, capture_output=True).stdout
     rows = [json.loads(line[5:]) for line in out.splitlines() if line.startswith("JSON ")]
     return {(r["case"], r["points"], r["threads"]): r for r in rows}
@@ -76,6 +79,8 @@ def main():
     p.add_argument("--steps", type=int, default=0, help="exactly N timed steps (checksums compared)")
     p.add_argument("--metric", choices=("wall", "cpu"), default="wall",
                    help="rate by wall time (default) or CPU time (one thread on a busy machine)")
+    p.add_argument("--bench-args", default="",
+                   help="more arguments for both builds' bench_block (the option modes: --transfer, --stress-update)")
     p.add_argument("--workdir", default="/tmp/emp-compare")
     p.add_argument("--jobs", type=int, default=os.cpu_count())
     a = p.parse_args()

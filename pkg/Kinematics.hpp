@@ -96,6 +96,51 @@ inline bool polarDecomposition(const Mat<3>& F, Mat<3>& R, Mat<3>& U)
     return false;
 }
 
+/// A 2 x 2 matrix on plain numbers: the co-rotational update of a run of 2D points in one
+/// vectorised loop (Solver::corotationalOfRun2) works on these, one point per lane.
+struct Plain2 {
+    double xx, xy, yx, yy;
+};
+
+/// F <- (I - dt L)^-1 F on plain numbers: bitwise Eigen's (I - dt L).inverse() * F for 2 x 2
+/// matrices (the same operations in the same order; a sum of two products is the same either way).
+EMP_ALWAYS_INLINE Plain2 deformationUpdate2(double dt, const Plain2& L, const Plain2& F)
+{
+    const double axx = 1.0 - dt * L.xx, axy = 0.0 - dt * L.xy, ayx = 0.0 - dt * L.yx, ayy = 1.0 - dt * L.yy;
+    const double inv = 1.0 / (axx * ayy - ayx * axy);
+    const double bxx = ayy * inv, bxy = -axy * inv, byx = -ayx * inv, byy = axx * inv;
+    return {bxx * F.xx + bxy * F.yx, bxx * F.xy + bxy * F.yy, byx * F.xx + byy * F.yx, byx * F.xy + byy * F.yy};
+}
+
+/// polarDecomposition of a 2D F on plain numbers and without branches: R = (cr, -sr; sr, cr) and
+/// U, bitwise those of the Eigen form. Returns whether F was accepted; for a refused F the
+/// outputs are meaningless (possibly NaN) and must not be used.
+EMP_ALWAYS_INLINE bool polarDecomposition2(const Plain2& F, double& cr, double& sr, Plain2& U)
+{
+    const double s = F.yx - F.xy, c = F.xx + F.yy, r2 = s * s + c * c;
+    const bool ok = (r2 > 0) & (F.xx * F.yy - F.yx * F.xy > 0);
+    const double ir = 1.0 / std::sqrt(r2);
+    cr = c * ir;
+    sr = s * ir;
+    const double mxx = cr * F.xx + sr * F.yx, mxy = cr * F.xy + sr * F.yy;  // R^T F
+    const double myx = -sr * F.xx + cr * F.yx, myy = -sr * F.xy + cr * F.yy;
+    U = {0.5 * (mxx + mxx), 0.5 * (mxy + myx), 0.5 * (myx + mxy), 0.5 * (myy + myy)};
+    return ok;
+}
+
+/// cauchyStress for 2D on plain numbers (R = (cr, -sr; sr, cr)): bitwise the Eigen form.
+EMP_ALWAYS_INLINE Plain2 cauchyStress2(double cr, double sr, const Plain2& U, const Plain2& s)
+{
+    const double axx = s.xx * U.xx + s.xy * U.yx, axy = s.xx * U.xy + s.xy * U.yy;  // s U
+    const double ayx = s.yx * U.xx + s.yy * U.yx, ayy = s.yx * U.xy + s.yy * U.yy;
+    const double bxx = cr * axx + -sr * ayx, bxy = cr * axy + -sr * ayy;  // R (s U)
+    const double byx = sr * axx + cr * ayx, byy = sr * axy + cr * ayy;
+    const double txx = bxx * cr + bxy * -sr, txy = bxx * sr + bxy * cr;  // (R s U) R^T
+    const double tyx = byx * cr + byy * -sr, tyy = byx * sr + byy * cr;
+    const double k = 0.5 / (U.xx * U.yy - U.yx * U.xy);
+    return {k * (txx + txx), k * (txy + tyx), k * (tyx + txy), k * (tyy + tyy)};
+}
+
 /// C = B D^-1 for the diagonal d of a moment matrix (APIC). A direction with d = 0 (a linear
 /// kernel's point exactly on a node line: its only node there has no offset) gets 0.
 template <int D> EMP_ALWAYS_INLINE Mat<D> affineOf(const Mat<D>& B, const Vec<D>& d)

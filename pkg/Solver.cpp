@@ -296,13 +296,10 @@ template <int D, class K> EMP_ALWAYS_INLINE void Solver<D, K>::lawOfRun(const in
     // response (Law.hpp, response2), the law runs as one vectorised loop over the run: each lane
     // takes one point through the same operations, so the results are bitwise those of lawAt,
     // while the points' square roots and divisions go through the processor side by side.
-    auto& P = points_;
     if constexpr (D == 2) {
-        const int law = materials_[P.material[ids[0]]].law;
-        bool same = true;
-        for (int i = 1; i < n; ++i) same = same && materials_[P.material[ids[i]]].law == law;
+        const int law = lawOfPoints(ids, n);
         bool done = false;
-        if (same)
+        if (law >= 0)
             withLaw(law, [&](auto l) {
                 if constexpr (HasResponse2<decltype(l)>::value) {
                     lawOfRun2<decltype(l)>(ids, n);
@@ -312,6 +309,14 @@ template <int D, class K> EMP_ALWAYS_INLINE void Solver<D, K>::lawOfRun(const in
         if (done) return;
     }
     for (int i = 0; i < n; ++i) lawAt(ids[i]);
+}
+
+template <int D, class K> EMP_ALWAYS_INLINE int Solver<D, K>::lawOfPoints(const int* ids, int n) const
+{
+    const int law = materials_[points_.material[ids[0]]].law;
+    bool same = true;
+    for (int i = 1; i < n; ++i) same = same && materials_[points_.material[ids[i]]].law == law;
+    return same ? law : -1;
 }
 
 template <int D, class K>
@@ -369,6 +374,77 @@ template <int D, class K> EMP_ALWAYS_INLINE void Solver<D, K>::corotationalStres
     });
 }
 
+template <int D, class K>
+EMP_ALWAYS_INLINE void Solver<D, K>::corotationalOfRun(const int* ids, const St* st, int n, double dt)
+{
+    // As lawOfRun: in 2D, a run whose points share a law with the pointwise response goes
+    // through the whole update (deformation gradient, polar decomposition, law, Cauchy stress) as
+    // one vectorised loop; otherwise point by point.
+    if constexpr (D == 2) {
+        const int law = lawOfPoints(ids, n);
+        bool done = false;
+        if (law >= 0)
+            withLaw(law, [&](auto l) {
+                if constexpr (HasResponse2<decltype(l)>::value) {
+                    corotationalOfRun2<decltype(l)>(ids, st, n, dt);
+                    done = true;
+                }
+            });
+        if (done) return;
+    }
+    for (int i = 0; i < n; ++i) updateStress<true>(ids[i], st[i], dt);
+}
+
+template <int D, class K>
+template <class Law>
+EMP_ALWAYS_INLINE void Solver<D, K>::corotationalOfRun2(const int* ids, const St* st, int n, double dt)
+{
+    // updateStress<true> and corotationalStress for n points, each lane one point through the
+    // same operations: the velocity gradients first (stencil sums, point by point), then the
+    // algebra, whose divisions and square roots go through the processor side by side.
+    auto& P = points_;
+    alignas(64) double l[4][stressRun], f[4][stressRun], c[stressRun], lambda[stressRun], mu[stressRun];
+    alignas(64) double e[4][stressRun], sigma[4][stressRun], psiPlus[stressRun], psiMinus[stressRun];
+    alignas(64) double ok[stressRun];
+    for (int i = 0; i < n; ++i) {
+        const int p = ids[i];
+        const Mat<D> L = velocityGradient(p, st[i]);
+        const Mat<D>& F = P.deformationGradient[p];
+        l[0][i] = L(0, 0), l[1][i] = L(0, 1), l[2][i] = L(1, 0), l[3][i] = L(1, 1);
+        f[0][i] = F(0, 0), f[1][i] = F(0, 1), f[2][i] = F(1, 0), f[3][i] = F(1, 1);
+        c[i] = P.damage[p];
+        const ElasticMaterial& m = materials_[P.material[p]];
+        lambda[i] = m.lambda;
+        mu[i] = m.mu;
+    }
+#pragma omp simd
+    for (int i = 0; i < n; ++i) {
+        const Plain2 F = deformationUpdate2(dt, {l[0][i], l[1][i], l[2][i], l[3][i]}, {f[0][i], f[1][i], f[2][i], f[3][i]});
+        f[0][i] = F.xx, f[1][i] = F.xy, f[2][i] = F.yx, f[3][i] = F.yy;
+        double cr, sr;
+        Plain2 U, s;
+        ok[i] = polarDecomposition2(F, cr, sr, U) ? 1.0 : 0.0;
+        e[0][i] = U.xx - 1.0, e[1][i] = U.xy - 0.0, e[2][i] = U.yx - 0.0, e[3][i] = U.yy - 1.0;
+        Law::response2(e[0][i], e[1][i], e[2][i], e[3][i], c[i], lambda[i], mu[i], s.xx, s.xy, s.yx, s.yy, psiPlus[i],
+                       psiMinus[i]);
+        const Plain2 t = cauchyStress2(cr, sr, U, s);
+        sigma[0][i] = t.xx, sigma[1][i] = t.xy, sigma[2][i] = t.yx, sigma[3][i] = t.yy;
+    }
+    for (int i = 0; i < n; ++i) {
+        const int p = ids[i];
+        P.deformationGradient[p] << f[0][i], f[1][i], f[2][i], f[3][i];
+        if (ok[i] == 0) {  // a degenerate F: NaN stress, reported by the step's check (corotationalStress)
+            P.stress[p].setConstant(std::numeric_limits<double>::quiet_NaN());
+            continue;
+        }
+        P.strain[p] << e[0][i], e[1][i], e[2][i], e[3][i];
+        P.stress[p] << sigma[0][i], sigma[1][i], sigma[2][i], sigma[3][i];
+        P.psiPlus[p] = psiPlus[i];
+        P.psiMinus[p] = psiMinus[i];
+        P.history[p] = std::max(P.history[p], psiPlus[i]);
+    }
+}
+
 template <int D, class K> Mat<D> Solver<D, K>::spatialStress(int p, const Mat<D>& s) const
 {
     Mat<D> R, U;
@@ -406,8 +482,12 @@ template <int D, class K> void Solver<D, K>::stressAndInternalForce(double dt, i
     if (dist_) between = [&] { dist_->afterFirstColour(grid_, fields); };
     const auto pass = [&](auto withGravity, auto corotational) {
         schedule_.scatterRuns(nThreads, stressRun, [&](int begin, int end) {
-            for (int k = begin; k < end; ++k) updateStress<decltype(corotational)::value>(order[k], stencil_[k], dt);
-            if constexpr (!decltype(corotational)::value) lawOfRun(&order[begin], end - begin);
+            if constexpr (decltype(corotational)::value) {
+                corotationalOfRun(&order[begin], &stencil_[begin], end - begin, dt);
+            } else {
+                for (int k = begin; k < end; ++k) updateStress<false>(order[k], stencil_[k], dt);
+                lawOfRun(&order[begin], end - begin);
+            }
             for (int k = begin; k < end; ++k)
                 scatterInternalForce<decltype(withGravity)::value, decltype(corotational)::value>(
                     order[k], stencil_[k], gravity);

@@ -228,6 +228,14 @@ private:
     template <class Law> void lawOfRun2(const int* ids, int n);
     /// The co-rotational update's stress of point p from its deformation gradient (Kinematics.hpp).
     void corotationalStress(int p);
+    /// The co-rotational update of the n <= stressRun points ids with stencils st
+    /// (updateStress<true> for each, or corotationalOfRun2).
+    void corotationalOfRun(const int* ids, const St* st, int n, double dt);
+    /// The same for n 2D points at once, on plain numbers (Kinematics.hpp, Plain2) and the law's
+    /// pointwise response: bitwise the per-point update.
+    template <class Law> void corotationalOfRun2(const int* ids, const St* st, int n, double dt);
+    /// The law the n points ids share, or -1 if they do not share one.
+    int lawOfPoints(const int* ids, int n) const;
     /// The Cauchy stress R s U R^T / J of a co-rotated stress s at point p's deformation gradient.
     Mat<D> spatialStress(int p, const Mat<D>& s) const;
     template <bool withGravity, bool corotational>

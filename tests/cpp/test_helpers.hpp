@@ -5,6 +5,8 @@
 #include <Eigen/Dense>
 #include <array>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <limits>
 #include <random>
 #include <string>
@@ -18,6 +20,14 @@ namespace emptest {
 
 using emp::Mat;
 using emp::Vec;
+
+/// The bits of a double (a signed zero differs from the other, a NaN equals itself).
+inline std::uint64_t bits(double x)
+{
+    std::uint64_t b;
+    std::memcpy(&b, &x, sizeof b);
+    return b;
+}
 
 /// A (dimension, shape function) pair for typed tests.
 template <int D_, class K_> struct Config {

@@ -14,6 +14,7 @@ using emp::LinearKernel;
 using emp::Solver;
 using emp::StressUpdate;
 using emp::Transfer;
+using emptest::bits;
 using emptest::Mat;
 using emptest::to3;
 using emptest::Vec;
@@ -59,6 +60,95 @@ template <int D> void checkPolar()
 
 TEST(Kinematics, PolarDecomposition2D) { checkPolar<2>(); }
 TEST(Kinematics, PolarDecomposition3D) { checkPolar<3>(); }
+
+// --- the co-rotational update on plain numbers (the solver's vectorised 2D runs) ------------
+
+/// Kinematics.hpp's plain-number 2D pieces, which the solver runs for a run of points in one
+/// vectorised loop, are bitwise the Eigen forms they stand for (kept as the reference): F <-
+/// (I - dt L)^-1 F, the polar decomposition (and its refusals), the Cauchy stress. Brittle and
+/// large deformations, fast spins, exact and signed zeros.
+TEST(Kinematics, PlainNumberCorotationalUpdate2DIsBitwiseTheEigenForm)
+{
+    using emp::Plain2;
+    std::mt19937 rng(31);
+    std::uniform_real_distribution<double> u(-1, 1);
+    const auto plain = [](const Mat<2>& m) { return Plain2{m(0, 0), m(0, 1), m(1, 0), m(1, 1)}; };
+    const auto same = [](const Plain2& a, const Mat<2>& m) {
+        return bits(a.xx) == bits(m(0, 0)) && bits(a.xy) == bits(m(0, 1)) && bits(a.yx) == bits(m(1, 0)) &&
+               bits(a.yy) == bits(m(1, 1));
+    };
+    int accepted = 0, refused = 0;
+    for (int trial = 0; trial < 4000; ++trial) {
+        const double scale = trial % 3 == 0 ? 1e-3 : trial % 3 == 1 ? 0.3 : 3.0;
+        Mat<2> L, F0, S;
+        L << u(rng), u(rng), u(rng), u(rng);
+        S << u(rng), u(rng), u(rng), u(rng);
+        F0 = emptest::randomRotation<2>(rng) * (Mat<2>::Identity() + emptest::randomSymmetric<2>(rng, scale));
+        if (trial % 7 == 0) L(0, 1) = L(1, 0) = trial % 2 ? 0.0 : -0.0;  // a stretch, zeros signed
+        if (trial % 11 == 0) F0.setIdentity();                            // the first step
+        if (trial % 13 == 0) F0(0, 0) = -F0(0, 0);                        // inverted: refused
+        if (trial % 17 == 0) F0.setZero();                                // collapsed: refused
+        const double dt = trial % 5 == 0 ? 0.9 : 1e-3 * scale;  // 0.9: a large turn in one step
+        const Mat<2> F = (Mat<2>::Identity() - dt * L).inverse() * F0;  // updateStress<true>
+        const Plain2 Fp = emp::deformationUpdate2(dt, plain(L), plain(F0));
+        ASSERT_TRUE(same(Fp, F)) << "trial " << trial << "\n" << F;
+        Mat<2> R, U;
+        const bool ok = emp::polarDecomposition(F, R, U);
+        double cr, sr;
+        Plain2 Up;
+        ASSERT_EQ(emp::polarDecomposition2(Fp, cr, sr, Up), ok) << "trial " << trial << "\n" << F;
+        if (!ok) {
+            ++refused;
+            continue;
+        }
+        ++accepted;
+        ASSERT_TRUE(same({cr, -sr, sr, cr}, R)) << "trial " << trial << "\n" << R;
+        ASSERT_TRUE(same(Up, U)) << "trial " << trial << "\n" << U;
+        ASSERT_TRUE(same(emp::cauchyStress2(cr, sr, Up, plain(S)), emp::cauchyStress<2>(R, U, S))) << "trial " << trial;
+    }
+    EXPECT_GT(accepted, 2500);
+    EXPECT_GT(refused, 400);
+}
+
+/// After steps of a spinning, vibrating 2D block with the co-rotational update, every point's
+/// co-rotated strain, stress, psi+ and psi- are bitwise those the per-point form gives from its
+/// deformation gradient (polar decomposition, its material's law, Cauchy stress): whether its run
+/// took the vectorised update (points sharing a law with response2) or the per-point one (runs
+/// mixing laws where the blocks meet, and the volumetric law, which has no response2).
+TEST(Kinematics, CorotationalRunsGiveEachPointItsOwnUpdateBitwise)
+{
+    Solver<2, GimpKernel> s(settings(0.01, Transfer::flip, StressUpdate::corotational));
+    const int m0 = s.addMaterial(2e7, 0.25, 1000, false, emp::lawIndex("spectral"));
+    const int m1 = s.addMaterial(3e7, 0.2, 1200, true, emp::lawIndex("volumetric"));
+    const int m2 = s.addMaterial(1e7, 0.3, 900, true, emp::lawIndex("spectral"));
+    const auto vel = [](const Vec<2>& x) {
+        return Vec<2>(-40 * (x[1] - 0.06) + std::sin(40 * x[1]), 40 * (x[0] - 0.075) + std::cos(30 * x[0]) - 0.5);
+    };
+    emptest::addBlock<2>(s, {3, 3}, {6, 9}, m0, vel);
+    emptest::addBlock<2>(s, {6, 3}, {7, 9}, m1, vel);
+    emptest::addBlock<2>(s, {7, 3}, {12, 9}, m2, vel);
+    s.initialize();
+    auto& P = s.points();
+    for (std::size_t p = 0; p < P.size(); p += 3) P.damage[p] = 0.5 * (p % 2);  // some damaged or eroded
+    const double dt = 0.5 * s.criticalTimeStep();
+    for (int k = 0; k < 5; ++k) s.step(dt, 1);
+    int tensile = 0, turned = 0;
+    for (std::size_t p = 0; p < P.size(); ++p) {
+        Mat<2> R, U;
+        ASSERT_TRUE(emp::polarDecomposition(P.deformationGradient[p], R, U)) << "point " << p;
+        const Mat<2> eps = U - Mat<2>::Identity();
+        for (int k = 0; k < 4; ++k) ASSERT_EQ(bits(P.strain[p](k)), bits(eps(k))) << "point " << p;
+        const auto r = emp::lawResponse<2>(eps, s.materials()[P.material[p]]);
+        const Mat<2> sigma = emp::cauchyStress<2>(R, U, P.damage[p] * r.sigmaPlus + r.sigmaMinus);
+        for (int k = 0; k < 4; ++k) ASSERT_EQ(bits(P.stress[p](k)), bits(sigma(k))) << "point " << p;
+        ASSERT_EQ(bits(P.psiPlus[p]), bits(r.psiPlus)) << "point " << p;
+        ASSERT_EQ(bits(P.psiMinus[p]), bits(r.psiMinus)) << "point " << p;
+        tensile += r.psiPlus > 0 && r.psiMinus > 0;
+        turned += std::abs(R(1, 0)) > 1e-3;
+    }
+    EXPECT_GT(tensile, 10);                          // mixed states: the split's every case is met
+    EXPECT_EQ(turned, static_cast<int>(P.size()));  // and every point has turned
+}
 
 // --- APIC: affine fields ------------------------------------------------------------------
 

@@ -9,8 +9,6 @@
 //   - an eroded point keeps sigma-, which never pulls (negative semi-definite for nu >= 0);
 //   - in the solver: the patch test (a homogeneous strain gives the law's stress at every
 //     point) and a compressed block with a tiny Gc never erodes when the law promises it.
-#include <cstdint>
-#include <cstring>
 #include <type_traits>
 #include <vector>
 
@@ -182,13 +180,7 @@ template <class L, int D> void erodedStressNeverPulls(std::mt19937& rng, const C
     }
 }
 
-/// The bits of a double (a signed zero differs from the other, a NaN equals itself).
-std::uint64_t bits(double x)
-{
-    std::uint64_t b;
-    std::memcpy(&b, &x, sizeof b);
-    return b;
-}
+using emptest::bits;
 
 /// 2D strains that take every path of a split: random ones of both signs and sizes, unequal
 /// off-diagonal terms, the sign patterns one by one, repeated principal strains, zeros.
