@@ -188,9 +188,9 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
                 double o[D][S];
                 st.offsets(P.x[p], g, o);
                 const Mat<D> mC = mp * affineOf(P.affineVelocity[p], st.momentDiagonal(o));
-                st.forEachWithOffset(g, o, [&](int I, double N, const Vec<D>&, const Vec<D>& dx) {
+                st.forEachAffine(g, o, mv, mC, [&](int I, double N, const Vec<D>& m) {
                     g.mass[I] += N * mp;
-                    g.momentum[I] += N * (mv + mC * dx);
+                    g.momentum[I] += N * m;
                 });
             }
         };
@@ -650,11 +650,8 @@ template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThre
                 double o[D][S];
                 st.offsets(P.x[p], g, o);
                 const Vec<D> dm = st.momentDiagonal(o);
-                Mat<D> B = Mat<D>::Zero();
-                st.forEachWithOffset(g, o, [&](int I, double N, const Vec<D>&, const Vec<D>& dx) {
-                    vg += N * g.velocity[I];
-                    B.noalias() += (N * g.velocity[I]) * dx.transpose();
-                });
+                Mat<D> B;
+                st.affineSums(g, o, [&](int I) { return g.velocity[I]; }, vg, B);
                 v = vg;
                 double affine = 0;  // m tr(C_old D C^T) / 2 at this position, C = B D^-1
                 for (int d = 0; d < D; ++d)

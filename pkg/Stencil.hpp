@@ -97,7 +97,8 @@ template <int D, class K> struct Stencil {
         return m;
     }
 
-    /// forEach with the offset x_I - x_p as a fourth argument: f(I, N, grad N, dx).
+    /// forEach with the offset x_I - x_p as a fourth argument: f(I, N, grad N, dx) (the plain form
+    /// of forEachAffine and affineSums, kept as their reference in the tests).
     template <class F> EMP_ALWAYS_INLINE void forEachWithOffset(const Grid<D>& g, const double (*o)[S], F&& f) const
     {
         int c = 0;  // support node number, in forEach's order (x fastest)
@@ -109,6 +110,78 @@ template <int D, class K> struct Stencil {
             f(I, N, grad, dx);
             ++c;
         });
+    }
+
+    /// Calls f(node index, N, a + M (x_I - x_p)) for every support node in forEach's order (APIC's
+    /// P2G: a = m v, M = m C). The affine field is built direction by direction, one vector sum
+    /// per node instead of a matrix-vector product (forEachWithOffset is the plain form).
+    template <class F>
+    EMP_ALWAYS_INLINE void forEachAffine(const Grid<D>& g, const double (*o)[S], const Vec<D>& a, const Mat<D>& M,
+                                         F&& f) const
+    {
+        int node[NS];
+        nodes(g, node);
+        Vec<D> x[S];
+        for (int i = 0; i < S; ++i) x[i] = o[0][i] * M.col(0);
+        if constexpr (D == 2) {
+            for (int j = 0; j < S; ++j) {
+                const Vec<2> r = a + o[1][j] * M.col(1);
+                for (int i = 0; i < S; ++i) f(node[i + S * j], w[0][i] * w[1][j], Vec<2>(r + x[i]));
+            }
+        } else {
+            for (int k = 0; k < S; ++k) {
+                const Vec<3> q = a + o[2][k] * M.col(2);
+                for (int j = 0; j < S; ++j) {
+                    const double wjk = w[1][j] * w[2][k];
+                    const Vec<3> r = q + o[1][j] * M.col(1);
+                    for (int i = 0; i < S; ++i) f(node[i + S * (j + S * k)], w[0][i] * wjk, Vec<3>(r + x[i]));
+                }
+            }
+        }
+    }
+
+    /// sum = sum_I N_I v(I) and B = sum_I N_I v(I) (x_I - x_p)^T for the nodal values v(I) (APIC's
+    /// G2P). The offsets are applied to the sums over each row and plane of the support and over
+    /// each node column, not node by node: three additions per node instead of a rank-one update.
+    template <class V>
+    EMP_ALWAYS_INLINE void affineSums(const Grid<D>& g, const double (*o)[S], V&& v, Vec<D>& sum, Mat<D>& B) const
+    {
+        int node[NS];
+        nodes(g, node);
+        Vec<D> column[S];  // sums over the nodes base[0] + i of every row
+        for (int i = 0; i < S; ++i) column[i].setZero();
+        sum.setZero();
+        B.setZero();
+        if constexpr (D == 2) {
+            for (int j = 0; j < S; ++j) {
+                Vec<2> row = Vec<2>::Zero();
+                for (int i = 0; i < S; ++i) {
+                    const Vec<2> nv = (w[0][i] * w[1][j]) * v(node[i + S * j]);
+                    row += nv;
+                    column[i] += nv;
+                }
+                sum += row;
+                B.col(1) += o[1][j] * row;
+            }
+        } else {
+            for (int k = 0; k < S; ++k) {
+                Vec<3> plane = Vec<3>::Zero();
+                for (int j = 0; j < S; ++j) {
+                    const double wjk = w[1][j] * w[2][k];
+                    Vec<3> row = Vec<3>::Zero();
+                    for (int i = 0; i < S; ++i) {
+                        const Vec<3> nv = (w[0][i] * wjk) * v(node[i + S * (j + S * k)]);
+                        row += nv;
+                        column[i] += nv;
+                    }
+                    plane += row;
+                    B.col(1) += o[1][j] * row;
+                }
+                sum += plane;
+                B.col(2) += o[2][k] * plane;
+            }
+        }
+        for (int i = 0; i < S; ++i) B.col(0) += o[0][i] * column[i];
     }
 
     /// The node indices of the support, in forEach's order (x fastest): from the base node, or

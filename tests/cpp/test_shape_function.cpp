@@ -334,9 +334,11 @@ TYPED_TEST(KernelTest, GradientMatchesFiniteDifference3D) { checkGradientByFinit
 
 }  // namespace
 
-/// The factored sums of the stress pass (Stencil::gradientOf, Stencil::forEachProjected) against
-/// their plain forms through forEach: sum v_I grad N_I^T and M grad N_I node by node, to
-/// round-off, on the regular lattice and on a support remapped to other node indices (twins).
+/// The factored sums of the stress pass (Stencil::gradientOf, Stencil::forEachProjected) and of
+/// APIC's transfers (forEachAffine, affineSums) against their plain forms through forEach and
+/// forEachWithOffset: sum v_I grad N_I^T, M grad N_I node by node, a + M (x_I - x_p) node by
+/// node, sum N_I v_I and sum N_I v_I (x_I - x_p)^T, to round-off, on the regular lattice and on
+/// a support remapped to other node indices (twins).
 template <class C> struct StencilSumsTest : ::testing::Test {};
 TYPED_TEST_SUITE(StencilSumsTest, emptest::AllSolvers);
 
@@ -380,10 +382,36 @@ TYPED_TEST(StencilSumsTest, FactoredSumsAreThePlainSumsToRoundOff)
             ++k;
         });
         EXPECT_EQ(k, plainM.size());
+        // APIC's sums (forEachAffine, affineSums) against the plain forms through
+        // forEachWithOffset: a + M dx node by node, sum N v and sum N v dx^T.
+        double o[D][St::S];
+        st.offsets(x, g, o);
+        const Vec<D> a0 = Vec<D>::Constant(u(rng));
+        std::vector<Vec<D>> plainAffine;
+        Vec<D> plainSum = Vec<D>::Zero();
+        Mat<D> plainB = Mat<D>::Zero();
+        st.forEachWithOffset(g, o, [&](int I, double N, const Vec<D>&, const Vec<D>& dx) {
+            plainAffine.push_back(a0 + M * dx);
+            plainSum += N * g.velocity[I];
+            plainB.noalias() += (N * g.velocity[I]) * dx.transpose();
+        });
+        k = 0;
+        st.forEachAffine(g, o, a0, M, [&](int, double, const Vec<D>& m) {
+            EXPECT_LT((m - plainAffine[k]).cwiseAbs().maxCoeff(), 1e-14) << "x = " << x.transpose() << ", node " << k;
+            ++k;
+        });
+        EXPECT_EQ(k, plainAffine.size());
+        Vec<D> sum;
+        Mat<D> B;
+        st.affineSums(g, o, [&](int I) { return g.velocity[I]; }, sum, B);
+        EXPECT_LT((sum - plainSum).cwiseAbs().maxCoeff(), 1e-14) << "x = " << x.transpose();
+        EXPECT_LT((B - plainB).cwiseAbs().maxCoeff(), 1e-14 * g.h) << "x = " << x.transpose();
         // Same nodes and weights in the same order as forEach.
-        std::vector<std::pair<int, double>> a, b;
+        std::vector<std::pair<int, double>> a, b, c;
         st.forEach(g, [&](int I, double N, const Vec<D>&) { a.emplace_back(I, N); });
         st.forEachProjected(g, M, [&](int I, double N, const Vec<D>&) { b.emplace_back(I, N); });
+        st.forEachAffine(g, o, a0, M, [&](int I, double N, const Vec<D>&) { c.emplace_back(I, N); });
         EXPECT_EQ(a, b);
+        EXPECT_EQ(a, c);
     }
 }
