@@ -18,7 +18,8 @@
 //                         double& psiPlus, double& psiMinus);
 //       the 2D stress c sigma+ + sigma- and psi+/psi- on plain numbers, inlinable and without
 //       branches; the solver then evaluates the law for runs of points in one vectorised loop
-//       (Solver::lawOfRun2). It must give bitwise what response<2> gives (tested for every law).
+//       (Solver::lawOfRun2, and with the co-rotational update Solver::corotationalOfRun2). It
+//       must give bitwise what response<2> gives (tested for every law).
 #pragma once
 #include <type_traits>
 

@@ -256,21 +256,10 @@ template <int D, class K> EMP_ALWAYS_INLINE Mat<D> Solver<D, K>::velocityGradien
     }
 }
 
-template <int D, class K>
-template <bool corotational>
-EMP_ALWAYS_INLINE void Solver<D, K>::updateStress(int p, const St& st, double dt)
+template <int D, class K> EMP_ALWAYS_INLINE void Solver<D, K>::updateStrain(int p, const St& st, double dt)
 {
     auto& P = points_;
     const Mat<D> L = velocityGradient(p, st);
-    if constexpr (corotational) {
-        // L is the gradient at the points' new positions of the velocity that brought them
-        // there, so the motion's gradient is (I - dt L)^-1 (Kinematics.hpp): exact for any field
-        // the transfer carries, a rigid rotation included.
-        Mat<D>& F = P.deformationGradient[p];
-        F = (Mat<D>::Identity() - dt * L).inverse() * F;
-        corotationalStress(p);
-        return;
-    }
     Mat<D>& eps = P.strain[p];
     eps += (0.5 * dt) * (L + L.transpose());  // strain increment (Eq 27)
 }
@@ -392,14 +381,25 @@ EMP_ALWAYS_INLINE void Solver<D, K>::corotationalOfRun(const int* ids, const St*
             });
         if (done) return;
     }
-    for (int i = 0; i < n; ++i) updateStress<true>(ids[i], st[i], dt);
+    // Point by point: the run's velocity gradients first (one tight loop of stencil sums, as in
+    // the small-strain pass), then each point's update. L is the gradient at the points' new
+    // positions of the velocity that brought them there, so the motion's gradient is
+    // (I - dt L)^-1 (Kinematics.hpp): exact for any field the transfer carries, a rigid rotation
+    // included.
+    Mat<D> L[stressRun];
+    for (int i = 0; i < n; ++i) L[i] = velocityGradient(ids[i], st[i]);
+    for (int i = 0; i < n; ++i) {
+        Mat<D>& F = points_.deformationGradient[ids[i]];
+        F = (Mat<D>::Identity() - dt * L[i]).inverse() * F;
+        corotationalStress(ids[i]);
+    }
 }
 
 template <int D, class K>
 template <class Law>
 EMP_ALWAYS_INLINE void Solver<D, K>::corotationalOfRun2(const int* ids, const St* st, int n, double dt)
 {
-    // updateStress<true> and corotationalStress for n points, each lane one point through the
+    // corotationalOfRun's point-by-point update for n points, each lane one point through the
     // same operations: the velocity gradients first (stencil sums, point by point), then the
     // algebra, whose divisions and square roots go through the processor side by side.
     auto& P = points_;
@@ -485,7 +485,7 @@ template <int D, class K> void Solver<D, K>::stressAndInternalForce(double dt, i
             if constexpr (decltype(corotational)::value) {
                 corotationalOfRun(&order[begin], &stencil_[begin], end - begin, dt);
             } else {
-                for (int k = begin; k < end; ++k) updateStress<false>(order[k], stencil_[k], dt);
+                for (int k = begin; k < end; ++k) updateStrain(order[k], stencil_[k], dt);
                 lawOfRun(&order[begin], end - begin);
             }
             for (int k = begin; k < end; ++k)

@@ -218,8 +218,8 @@ private:
     static constexpr int stressRun = 16;
     /// Eq 27's velocity gradient at point p.
     Mat<D> velocityGradient(int p, const St& st) const;
-    /// The strain increment of point p (small strain), or its co-rotational stress.
-    template <bool corotational> void updateStress(int p, const St& st, double dt);
+    /// The strain increment of point p (small strain).
+    void updateStrain(int p, const St& st, double dt);
     /// The law at point p: stress, psi+, psi-, history.
     void lawAt(int p);
     /// The law at the n <= stressRun points ids (lawAt for each, or lawOfRun2).
@@ -228,8 +228,8 @@ private:
     template <class Law> void lawOfRun2(const int* ids, int n);
     /// The co-rotational update's stress of point p from its deformation gradient (Kinematics.hpp).
     void corotationalStress(int p);
-    /// The co-rotational update of the n <= stressRun points ids with stencils st
-    /// (updateStress<true> for each, or corotationalOfRun2).
+    /// The co-rotational update of the n <= stressRun points ids with stencils st (point by
+    /// point: F, then corotationalStress; or corotationalOfRun2).
     void corotationalOfRun(const int* ids, const St* st, int n, double dt);
     /// The same for n 2D points at once, on plain numbers (Kinematics.hpp, Plain2) and the law's
     /// pointwise response: bitwise the per-point update.
