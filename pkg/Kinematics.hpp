@@ -32,9 +32,12 @@
 //                  R sigma(eps) U R^T of the energy psi(U - I), divided by J = det F for the
 //                  Cauchy stress the points report; the internal force is V_0 tau grad N.
 #pragma once
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <string>
+#include <type_traits>
+#include <utility>
 
 #include "ElasticMaterial.hpp"
 #include "Inline.hpp"
@@ -139,6 +142,100 @@ EMP_ALWAYS_INLINE Plain2 cauchyStress2(double cr, double sr, const Plain2& U, co
     const double tyx = byx * cr + byy * -sr, tyy = byx * sr + byy * cr;
     const double k = 0.5 / (U.xx * U.yy - U.yx * U.xy);
     return {k * (txx + txx), k * (txy + tyx), k * (tyx + txy), k * (tyy + tyy)};
+}
+
+/// A 3 x 3 matrix on plain numbers, a[row][column]: the co-rotational update of a run of 3D
+/// points with its algebra in vectorised loops (Solver::corotationalOfRun3). The functions below
+/// do Eigen's operations in Eigen's order (a product's three terms summed from the first), so
+/// that the results are bitwise those of the Eigen forms (tested).
+struct Plain3 {
+    double a[3][3];
+};
+
+/// Calls f(std::integral_constant<int, k>) for k = 0 ... 8: the entries of a Plain3 with their
+/// indices known at compile time, so that the compiler keeps each lane's matrices in registers
+/// and can vectorise the loops over a run.
+template <class F, int... K> EMP_ALWAYS_INLINE void forEntries(F&& f, std::integer_sequence<int, K...>)
+{
+    (f(std::integral_constant<int, K>{}), ...);
+}
+template <class F> EMP_ALWAYS_INLINE void forEntries(F&& f) { forEntries(f, std::make_integer_sequence<int, 9>{}); }
+
+EMP_ALWAYS_INLINE double cofactor3(const Plain3& m, int i, int j)
+{
+    const int i1 = (i + 1) % 3, i2 = (i + 2) % 3, j1 = (j + 1) % 3, j2 = (j + 2) % 3;
+    return m.a[i1][j1] * m.a[i2][j2] - m.a[i1][j2] * m.a[i2][j1];
+}
+
+/// det m as Eigen's determinant() computes it.
+EMP_ALWAYS_INLINE double determinant3(const Plain3& m)
+{
+    const auto h = [&](int a, int b, int c) { return m.a[0][a] * (m.a[1][b] * m.a[2][c] - m.a[1][c] * m.a[2][b]); };
+    return h(0, 1, 2) - h(1, 0, 2) + h(2, 0, 1);
+}
+
+/// m^-1 (transposed: m^-T) as Eigen's inverse() computes it: cofactors over the determinant
+/// from the first column's cofactors.
+template <bool transposed> EMP_ALWAYS_INLINE Plain3 inverse3(const Plain3& m)
+{
+    const double det = cofactor3(m, 0, 0) * m.a[0][0] + cofactor3(m, 1, 0) * m.a[1][0] + cofactor3(m, 2, 0) * m.a[2][0];
+    const double inv = 1.0 / det;
+    Plain3 r;
+    forEntries([&](auto k) {
+        constexpr int i = k / 3, j = k % 3;
+        r.a[i][j] = (transposed ? cofactor3(m, i, j) : cofactor3(m, j, i)) * inv;
+    });
+    return r;
+}
+
+/// A B (A^T B with transposeA, A B^T with transposeB), Eigen's order of the sums: for a
+/// column-major left factor Eigen sums rows 0 and 1 with SSE2 packets, (p0 + p1) + p2, and
+/// row 2 as a reduction, p0 + (p1 + p2); A^T B sums every row as the packets do.
+template <bool transposeA = false, bool transposeB = false>
+EMP_ALWAYS_INLINE Plain3 product3(const Plain3& A, const Plain3& B)
+{
+    const auto a = [&](int i, int k) { return transposeA ? A.a[k][i] : A.a[i][k]; };
+    const auto b = [&](int k, int j) { return transposeB ? B.a[j][k] : B.a[k][j]; };
+    Plain3 r;
+    forEntries([&](auto k) {
+        constexpr int i = k / 3, j = k % 3;
+        const double p0 = a(i, 0) * b(0, j), p1 = a(i, 1) * b(1, j), p2 = a(i, 2) * b(2, j);
+        r.a[i][j] = !transposeA && i == 2 ? p0 + (p1 + p2) : (p0 + p1) + p2;
+    });
+    return r;
+}
+
+/// One Newton step of the 3D polar decomposition, (X + X^-T) / 2, and the largest change it made.
+EMP_ALWAYS_INLINE Plain3 polarNewtonStep3(const Plain3& X, double& change)
+{
+    const Plain3 T = inverse3<true>(X);
+    Plain3 r;
+    change = 0;
+    forEntries([&](auto k) {
+        constexpr int i = k / 3, j = k % 3;
+        r.a[i][j] = 0.5 * (X.a[i][j] + T.a[i][j]);
+        change = std::max(change, std::abs(r.a[i][j] - X.a[i][j]));
+    });
+    return r;
+}
+
+/// U = sym(R^T F) for the rotation R of F's polar decomposition.
+EMP_ALWAYS_INLINE Plain3 stretch3(const Plain3& R, const Plain3& F)
+{
+    const Plain3 M = product3<true, false>(R, F);
+    Plain3 U;
+    forEntries([&](auto k) { U.a[k / 3][k % 3] = 0.5 * (M.a[k / 3][k % 3] + M.a[k % 3][k / 3]); });
+    return U;
+}
+
+/// cauchyStress for 3D on plain numbers: bitwise the Eigen form.
+EMP_ALWAYS_INLINE Plain3 cauchyStress3(const Plain3& R, const Plain3& U, const Plain3& s)
+{
+    const Plain3 t = product3<false, true>(product3(R, product3(s, U)), R);
+    const double k = 0.5 / determinant3(U);
+    Plain3 r;
+    forEntries([&](auto n) { r.a[n / 3][n % 3] = k * (t.a[n / 3][n % 3] + t.a[n % 3][n / 3]); });
+    return r;
 }
 
 /// C = B D^-1 for the diagonal d of a moment matrix (APIC). A direction with d = 0 (a linear

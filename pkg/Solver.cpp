@@ -380,6 +380,9 @@ EMP_ALWAYS_INLINE void Solver<D, K>::corotationalOfRun(const int* ids, const St*
                 }
             });
         if (done) return;
+    } else {
+        corotationalOfRun3(ids, st, n, dt);
+        return;
     }
     // Point by point: the run's velocity gradients first (one tight loop of stencil sums, as in
     // the small-strain pass), then each point's update. L is the gradient at the points' new
@@ -442,6 +445,94 @@ EMP_ALWAYS_INLINE void Solver<D, K>::corotationalOfRun2(const int* ids, const St
         P.psiPlus[p] = psiPlus[i];
         P.psiMinus[p] = psiMinus[i];
         P.history[p] = std::max(P.history[p], psiPlus[i]);
+    }
+}
+
+template <int D, class K>
+EMP_NOINLINE void Solver<D, K>::corotationalOfRun3(const int* ids, const St* st, int n, double dt)
+{
+    // corotationalOfRun's point-by-point update for n 3D points, its algebra lane by lane as in
+    // corotationalOfRun2. The polar decomposition's Newton iteration runs over all lanes until
+    // the last has converged; a lane that has converged (or was refused) keeps its value. The 3D
+    // law stays point by point (its eigenvalues call libm). Out of line: inlined, it made GCC
+    // inline less into the default 3D stress pass.
+    if constexpr (D == 3) {
+        auto& P = points_;
+        constexpr int R = stressRun;
+        alignas(64) double f[9][R], x[9][R], u[9][R], r[9][R], sig[9][R], state[R];
+        const auto load = [](const double (*a)[R], int i) {
+            Plain3 m;
+            forEntries([&](auto k) { m.a[k / 3][k % 3] = a[k][i]; });
+            return m;
+        };
+        const auto store = [](double (*a)[R], int i, const Plain3& m) {
+            forEntries([&](auto k) { a[k][i] = m.a[k / 3][k % 3]; });
+        };
+        for (int i = 0; i < n; ++i) {
+            const Mat<3> L = velocityGradient(ids[i], st[i]);
+            const Mat<3>& F = P.deformationGradient[ids[i]];
+            for (int k = 0; k < 9; ++k) f[k][i] = F(k / 3, k % 3), r[k][i] = L(k / 3, k % 3);
+        }
+        // F <- (I - dt L)^-1 F; the Newton iteration starts from F (state 1: iterating, 0: refused).
+#pragma omp simd
+        for (int i = 0; i < n; ++i) {
+            Plain3 A = load(r, i);
+            forEntries([&](auto k) { A.a[k / 3][k % 3] = (k % 4 == 0 ? 1.0 : 0.0) - dt * A.a[k / 3][k % 3]; });
+            const Plain3 F = product3(inverse3<false>(A), load(f, i));
+            store(f, i, F);
+            store(x, i, F);
+            state[i] = determinant3(F) > 0 ? 1.0 : 0.0;
+        }
+        // polarDecomposition's iteration (state 2: converged; 1 after 40 iterations: refused).
+        for (int it = 0; it < 40; ++it) {
+            double iterating = 0;
+#pragma omp simd reduction(+ : iterating)
+            for (int i = 0; i < n; ++i) {
+                const Plain3 X = load(x, i);
+                double change;
+                const Plain3 next = polarNewtonStep3(X, change);
+                const bool active = state[i] == 1.0;
+                store(x, i, active ? next : X);
+                state[i] = active && change < 1e-8 ? 2.0 : state[i];
+                iterating += state[i] == 1.0 ? 1.0 : 0.0;
+            }
+            if (iterating == 0) break;
+        }
+        // The settling step gives R; U = sym(R^T F).
+#pragma omp simd
+        for (int i = 0; i < n; ++i) {
+            double change;
+            const Plain3 Rot = polarNewtonStep3(load(x, i), change);
+            store(r, i, Rot);
+            store(u, i, stretch3(Rot, load(f, i)));
+        }
+        // The law at eps = U - I, point by point.
+        for (int i = 0; i < n; ++i) {
+            const int p = ids[i];
+            for (int k = 0; k < 9; ++k) P.deformationGradient[p](k / 3, k % 3) = f[k][i];
+            if (state[i] != 2.0) {  // a degenerate F: NaN stress, reported by the step's check
+                P.stress[p].setConstant(std::numeric_limits<double>::quiet_NaN());
+                for (int k = 0; k < 9; ++k) sig[k][i] = 0;  // (the lane's Cauchy stress is not used)
+                continue;
+            }
+            Mat<3> eps;
+            for (int k = 0; k < 9; ++k) eps(k / 3, k % 3) = u[k][i] - (k % 4 == 0 ? 1.0 : 0.0);
+            P.strain[p] = eps;
+            const ElasticMaterial& m = materials_[P.material[p]];
+            withLaw(m.law, [&](auto law) {
+                const LawResponse<3> resp = decltype(law)::template response<3>(eps, m);
+                const Mat<3> s = P.damage[p] * resp.sigmaPlus + resp.sigmaMinus;
+                for (int k = 0; k < 9; ++k) sig[k][i] = s(k / 3, k % 3);
+                P.psiPlus[p] = resp.psiPlus;
+                P.psiMinus[p] = resp.psiMinus;
+                P.history[p] = std::max(P.history[p], resp.psiPlus);
+            });
+        }
+#pragma omp simd
+        for (int i = 0; i < n; ++i) store(sig, i, cauchyStress3(load(r, i), load(u, i), load(sig, i)));
+        for (int i = 0; i < n; ++i)
+            if (state[i] == 2.0)
+                for (int k = 0; k < 9; ++k) P.stress[ids[i]](k / 3, k % 3) = sig[k][i];
     }
 }
 

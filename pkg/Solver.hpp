@@ -234,6 +234,10 @@ private:
     /// The same for n 2D points at once, on plain numbers (Kinematics.hpp, Plain2) and the law's
     /// pointwise response: bitwise the per-point update.
     template <class Law> void corotationalOfRun2(const int* ids, const St* st, int n, double dt);
+    /// The same for n 3D points: the algebra (F, polar decomposition, Cauchy stress) in
+    /// vectorised loops on plain numbers (Kinematics.hpp, Plain3), the law point by point.
+    /// Bitwise the per-point update.
+    void corotationalOfRun3(const int* ids, const St* st, int n, double dt);
     /// The law the n points ids share, or -1 if they do not share one.
     int lawOfPoints(const int* ids, int n) const;
     /// The Cauchy stress R s U R^T / J of a co-rotated stress s at point p's deformation gradient.

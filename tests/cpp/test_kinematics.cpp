@@ -110,23 +110,78 @@ TEST(Kinematics, PlainNumberCorotationalUpdate2DIsBitwiseTheEigenForm)
     EXPECT_GT(refused, 400);
 }
 
-/// After steps of a spinning, vibrating 2D block with the co-rotational update, every point's
-/// co-rotated strain, stress, psi+ and psi- are bitwise those the per-point form gives from its
-/// deformation gradient (polar decomposition, its material's law, Cauchy stress): whether its run
-/// took the vectorised update (points sharing a law with response2) or the per-point one (runs
-/// mixing laws where the blocks meet, and the volumetric law, which has no response2).
-TEST(Kinematics, CorotationalRunsGiveEachPointItsOwnUpdateBitwise)
+/// The 3D pieces on plain numbers (Kinematics.hpp, Plain3) against the Eigen forms they stand for,
+/// bit by bit: inverse, inverse transposed, the three kinds of product, determinant, a Newton step
+/// of the polar decomposition, the stretch and the Cauchy stress. (Eigen sums a product's rows
+/// in two orders; a wrong order fails here.)
+TEST(Kinematics, PlainNumberAlgebra3DIsBitwiseTheEigenForm)
 {
-    Solver<2, GimpKernel> s(settings(0.01, Transfer::flip, StressUpdate::corotational));
+    using emp::Plain3;
+    std::mt19937 rng(37);
+    std::uniform_real_distribution<double> u(-1, 1);
+    const auto plain = [](const Mat<3>& m) {
+        Plain3 p;
+        for (int k = 0; k < 9; ++k) p.a[k / 3][k % 3] = m(k / 3, k % 3);
+        return p;
+    };
+    const auto same = [](const Plain3& p, const Mat<3>& m) {
+        for (int k = 0; k < 9; ++k)
+            if (bits(p.a[k / 3][k % 3]) != bits(m(k / 3, k % 3))) return false;
+        return true;
+    };
+    for (int trial = 0; trial < 3000; ++trial) {
+        Mat<3> A, B, C;
+        for (int k = 0; k < 9; ++k) A(k) = u(rng), B(k) = u(rng), C(k) = u(rng);
+        if (trial % 7 == 0) A(0, 1) = A(1, 0) = trial % 2 ? 0.0 : -0.0;
+        const Plain3 a = plain(A), b = plain(B), c = plain(C);
+        ASSERT_TRUE(same(emp::inverse3<false>(a), A.inverse())) << "trial " << trial;
+        ASSERT_TRUE(same(emp::inverse3<true>(a), A.inverse().transpose())) << "trial " << trial;
+        ASSERT_TRUE(same(emp::product3(a, b), A * B)) << "trial " << trial;
+        ASSERT_TRUE(same(emp::product3<true, false>(a, b), A.transpose() * B)) << "trial " << trial;
+        ASSERT_TRUE(same(emp::product3<false, true>(a, b), A * B.transpose())) << "trial " << trial;
+        ASSERT_EQ(bits(emp::determinant3(a)), bits(A.determinant())) << "trial " << trial;
+        double change;
+        const Plain3 next = emp::polarNewtonStep3(a, change);
+        const Mat<3> nextE = 0.5 * (A + A.inverse().transpose());
+        ASSERT_TRUE(same(next, nextE)) << "trial " << trial;
+        ASSERT_EQ(bits(change), bits((nextE - A).cwiseAbs().maxCoeff())) << "trial " << trial;
+        const Mat<3> M = A.transpose() * B;
+        ASSERT_TRUE(same(emp::stretch3(a, b), Mat<3>(0.5 * (M + M.transpose())))) << "trial " << trial;
+        ASSERT_TRUE(same(emp::cauchyStress3(a, b, c), emp::cauchyStress<3>(A, B, C))) << "trial " << trial;
+    }
+}
+
+/// After steps of a spinning, vibrating block with the co-rotational update, every point's
+/// co-rotated strain, stress, psi+ and psi- are bitwise those the per-point form gives from its
+/// deformation gradient (polar decomposition, its material's law, Cauchy stress): in 2D whether
+/// its run took the vectorised update (points sharing a law with response2) or the per-point one
+/// (runs mixing laws where the blocks meet, and the volumetric law, which has no response2); in
+/// 3D through the run's plain-number algebra (corotationalOfRun3) with the laws point by point.
+template <int D> void checkCorotationalRuns()
+{
+    Solver<D, GimpKernel> s(settings(0.01, Transfer::flip, StressUpdate::corotational));
     const int m0 = s.addMaterial(2e7, 0.25, 1000, false, emp::lawIndex("spectral"));
     const int m1 = s.addMaterial(3e7, 0.2, 1200, true, emp::lawIndex("volumetric"));
     const int m2 = s.addMaterial(1e7, 0.3, 900, true, emp::lawIndex("spectral"));
-    const auto vel = [](const Vec<2>& x) {
-        return Vec<2>(-40 * (x[1] - 0.06) + std::sin(40 * x[1]), 40 * (x[0] - 0.075) + std::cos(30 * x[0]) - 0.5);
+    const auto vel = [](const Vec<D>& x) {
+        Vec<D> v = Vec<D>::Zero();
+        v[0] = -40 * (x[1] - 0.06) + std::sin(40 * x[1]);
+        v[1] = 40 * (x[0] - 0.075) + std::cos(30 * x[0]) - 0.5;
+        if (D == 3) v[D - 1] = 10 * (x[0] - 0.075) + std::sin(20 * x[1]);
+        return v;
     };
-    emptest::addBlock<2>(s, {3, 3}, {6, 9}, m0, vel);
-    emptest::addBlock<2>(s, {6, 3}, {7, 9}, m1, vel);
-    emptest::addBlock<2>(s, {7, 3}, {12, 9}, m2, vel);
+    const auto box = [](int x0, int x1) {
+        std::array<int, D> lo, hi;
+        lo.fill(3);
+        hi.fill(D == 2 ? 9 : 6);
+        lo[0] = x0, hi[0] = x1;
+        return std::make_pair(lo, hi);
+    };
+    const int mats[3] = {m0, m1, m2}, cuts[4] = {3, 6, 7, 12};
+    for (int b = 0; b < 3; ++b) {
+        const auto [lo, hi] = box(cuts[b], cuts[b + 1]);
+        emptest::addBlock<D>(s, lo, hi, mats[b], vel);
+    }
     s.initialize();
     auto& P = s.points();
     for (std::size_t p = 0; p < P.size(); p += 3) P.damage[p] = 0.5 * (p % 2);  // some damaged or eroded
@@ -134,13 +189,13 @@ TEST(Kinematics, CorotationalRunsGiveEachPointItsOwnUpdateBitwise)
     for (int k = 0; k < 5; ++k) s.step(dt, 1);
     int tensile = 0, turned = 0;
     for (std::size_t p = 0; p < P.size(); ++p) {
-        Mat<2> R, U;
+        Mat<D> R, U;
         ASSERT_TRUE(emp::polarDecomposition(P.deformationGradient[p], R, U)) << "point " << p;
-        const Mat<2> eps = U - Mat<2>::Identity();
-        for (int k = 0; k < 4; ++k) ASSERT_EQ(bits(P.strain[p](k)), bits(eps(k))) << "point " << p;
-        const auto r = emp::lawResponse<2>(eps, s.materials()[P.material[p]]);
-        const Mat<2> sigma = emp::cauchyStress<2>(R, U, P.damage[p] * r.sigmaPlus + r.sigmaMinus);
-        for (int k = 0; k < 4; ++k) ASSERT_EQ(bits(P.stress[p](k)), bits(sigma(k))) << "point " << p;
+        const Mat<D> eps = U - Mat<D>::Identity();
+        for (int k = 0; k < D * D; ++k) ASSERT_EQ(bits(P.strain[p](k)), bits(eps(k))) << "point " << p;
+        const auto r = emp::lawResponse<D>(eps, s.materials()[P.material[p]]);
+        const Mat<D> sigma = emp::cauchyStress<D>(R, U, P.damage[p] * r.sigmaPlus + r.sigmaMinus);
+        for (int k = 0; k < D * D; ++k) ASSERT_EQ(bits(P.stress[p](k)), bits(sigma(k))) << "point " << p;
         ASSERT_EQ(bits(P.psiPlus[p]), bits(r.psiPlus)) << "point " << p;
         ASSERT_EQ(bits(P.psiMinus[p]), bits(r.psiMinus)) << "point " << p;
         tensile += r.psiPlus > 0 && r.psiMinus > 0;
@@ -149,6 +204,9 @@ TEST(Kinematics, CorotationalRunsGiveEachPointItsOwnUpdateBitwise)
     EXPECT_GT(tensile, 10);                          // mixed states: the split's every case is met
     EXPECT_EQ(turned, static_cast<int>(P.size()));  // and every point has turned
 }
+
+TEST(Kinematics, CorotationalRunsGiveEachPointItsOwnUpdateBitwise2D) { checkCorotationalRuns<2>(); }
+TEST(Kinematics, CorotationalRunsGiveEachPointItsOwnUpdateBitwise3D) { checkCorotationalRuns<3>(); }
 
 // --- APIC: affine fields ------------------------------------------------------------------
 
