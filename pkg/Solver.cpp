@@ -285,27 +285,27 @@ template <int D, class K> EMP_ALWAYS_INLINE void Solver<D, K>::lawOfRun(const in
     // response (Law.hpp, response2), the law runs as one vectorised loop over the run: each lane
     // takes one point through the same operations, so the results are bitwise those of lawAt,
     // while the points' square roots and divisions go through the processor side by side.
-    if constexpr (D == 2) {
-        const int law = lawOfPoints(ids, n);
-        bool done = false;
-        if (law >= 0)
-            withLaw(law, [&](auto l) {
-                if constexpr (HasResponse2<decltype(l)>::value) {
-                    lawOfRun2<decltype(l)>(ids, n);
-                    done = true;
-                }
-            });
-        if (done) return;
-    }
+    if constexpr (D == 2)
+        if (withSharedPointwiseLaw(ids, n, [&](auto l) { lawOfRun2<decltype(l)>(ids, n); })) return;
     for (int i = 0; i < n; ++i) lawAt(ids[i]);
 }
 
-template <int D, class K> EMP_ALWAYS_INLINE int Solver<D, K>::lawOfPoints(const int* ids, int n) const
+template <int D, class K>
+template <class F>
+EMP_ALWAYS_INLINE bool Solver<D, K>::withSharedPointwiseLaw(const int* ids, int n, F&& f)
 {
     const int law = materials_[points_.material[ids[0]]].law;
     bool same = true;
     for (int i = 1; i < n; ++i) same = same && materials_[points_.material[ids[i]]].law == law;
-    return same ? law : -1;
+    bool done = false;
+    if (same)
+        withLaw(law, [&](auto l) {
+            if constexpr (HasResponse2<decltype(l)>::value) {
+                f(l);
+                done = true;
+            }
+        });
+    return done;
 }
 
 template <int D, class K>
@@ -370,16 +370,7 @@ EMP_ALWAYS_INLINE void Solver<D, K>::corotationalOfRun(const int* ids, const St*
     // through the whole update (deformation gradient, polar decomposition, law, Cauchy stress) as
     // one vectorised loop; otherwise point by point.
     if constexpr (D == 2) {
-        const int law = lawOfPoints(ids, n);
-        bool done = false;
-        if (law >= 0)
-            withLaw(law, [&](auto l) {
-                if constexpr (HasResponse2<decltype(l)>::value) {
-                    corotationalOfRun2<decltype(l)>(ids, st, n, dt);
-                    done = true;
-                }
-            });
-        if (done) return;
+        if (withSharedPointwiseLaw(ids, n, [&](auto l) { corotationalOfRun2<decltype(l)>(ids, st, n, dt); })) return;
     } else {
         corotationalOfRun3(ids, st, n, dt);
         return;

@@ -238,8 +238,9 @@ private:
     /// vectorised loops on plain numbers (Kinematics.hpp, Plain3), the law point by point.
     /// Bitwise the per-point update.
     void corotationalOfRun3(const int* ids, const St* st, int n, double dt);
-    /// The law the n points ids share, or -1 if they do not share one.
-    int lawOfPoints(const int* ids, int n) const;
+    /// When the n points ids share a law with the pointwise 2D response (Law.hpp, response2):
+    /// f(law) and true; otherwise false.
+    template <class F> bool withSharedPointwiseLaw(const int* ids, int n, F&& f);
     /// The Cauchy stress R s U R^T / J of a co-rotated stress s at point p's deformation gradient.
     Mat<D> spatialStress(int p, const Mat<D>& s) const;
     template <bool withGravity, bool corotational>
