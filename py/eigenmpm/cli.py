@@ -124,7 +124,7 @@ def _tag(O, key, default):
 # Exit status of a run stopped by a solver error; an interrupted run exits with 128 + the
 # signal's number (130 for SIGINT, 143 for SIGTERM), as a shell reports a process killed by it.
 SOLVER_ERROR_STATUS = 1
-_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGUSR1)
 
 
 class RunEnd:
@@ -192,15 +192,24 @@ def runSteps(steps, poll=0.05):
     thread runs Python code: a plain ``O.run(steps, True)`` holds off Ctrl-C until the end of
     the run. Here the loop is waited for in a helper thread while the main thread wakes every
     `poll` seconds; SIGINT and SIGTERM (handlers installed for the run, the previous ones put
-    back after it) make it call ``O.pause()``, which stops the loop at the end of the current
-    step. A solver error (a point leaving the grid, a non-finite value) ends the run with its
-    message. Either way the state stays as the last complete step left it, so the example can
-    write its summary and figures. Returns a :class:`RunEnd`. With steps <= 0 (a run resumed
-    from a checkpoint of its end) nothing runs: YADE's ``O.run(0)`` would run without end."""
+    back after it; SIGUSR1 too, which Open MPI's mpiexec passes on to every rank) make it call
+    ``O.pause()``, which stops the loop at the end of the current step. Under mpiexec the ranks
+    stop together instead: the rank that received the signal asks for the stop, and every rank
+    ends the first step after which the distributed MpmEngines find it asked for on any rank
+    (:func:`eigenmpm.parallel.agreeOnStop`). A solver error (a point leaving the grid, a
+    non-finite value) ends the run with its message. Either way the state stays as the last
+    complete step left it, so the example can write its summary and figures. After a signal,
+    every :class:`eigenmpm.Checkpoint` in O.engines first saves that state, so that nothing is
+    lost and ``--resume`` continues from the stop. Returns a :class:`RunEnd`. With steps <= 0 (a
+    run resumed from a checkpoint of its end) nothing runs: YADE's ``O.run(0)`` would run
+    without end."""
     from yade import O
+    from . import parallel
     started = time.time()
     if steps <= 0:
         return RunEnd(None, None, started)
+    parallel.resetStop()
+    together = parallel.worldSize() > 1 and _distributedEngines(O)
     if threading.current_thread() is not threading.main_thread():  # signals reach the main thread only
         message = _run(O, steps)
         if message is None:
@@ -210,8 +219,12 @@ def runSteps(steps, poll=0.05):
 
     def onSignal(signum, frame):
         if not caught:
-            print(f"{signal.Signals(signum).name}: stopping the run at the end of the current step", flush=True)
+            where = f"rank {parallel.rank()}: " if together else ""
+            print(f"{where}{signal.Signals(signum).name}: stopping the run at the end of the current step"
+                  + (" (all ranks together)" if together else ""), flush=True)
         caught.append((signal.Signals(signum).name, time.time()))
+        if together:
+            parallel.requestStop(signum)
 
     outcome = {}
     worker = threading.Thread(target=lambda: outcome.update(result=_run(O, steps, outcome)),
@@ -222,7 +235,7 @@ def runSteps(steps, poll=0.05):
         paused = False
         while worker.is_alive():
             worker.join(poll)
-            if caught and not paused:
+            if caught and not paused and not together:
                 O.pause()
                 paused = True
         if outcome.get("result") is None and "raised" not in outcome:
@@ -235,14 +248,42 @@ def runSteps(steps, poll=0.05):
             signal.signal(s, handler)
     if "raised" in outcome:
         raise outcome["raised"]
-    if caught:
-        print(f"run stopped at iteration {O.iter}, t = {_seconds(O.time)}, "
-              f"{time.time() - caught[0][1]:.3f} s after {caught[0][0]}", flush=True)
+    if together:  # what the ranks agreed on, the same on every rank (a late signal: nothing)
+        agreed = parallel.agreedStop()
+        stop = (signal.Signals(agreed).name, caught[0][1] if caught else None) if agreed else None
+    else:
+        stop = caught[0] if caught else None
+    if stop:
+        after = f", {time.time() - stop[1]:.3f} s after {stop[0]}" if stop[1] is not None else f" ({stop[0]} on another rank)"
+        where = f"rank {parallel.rank()}: " if together else ""
+        print(f"{where}run stopped at iteration {O.iter}, t = {_seconds(O.time)}{after}", flush=True)
     if outcome.get("result") is not None:
         return RunEnd(outcome["result"], None, started)
-    if caught:
-        return RunEnd("interrupted", caught[0][0], started)
+    if stop:
+        _checkpointAtStop(O)
+        return RunEnd("interrupted", stop[0], started)
     return RunEnd(None, None, started)
+
+
+def _distributedEngines(O):
+    """Whether O.engines holds an MpmEngine (under mpiexec each distributes itself and agrees on
+    stops after its steps)."""
+    from .engines import MpmEngine, registered
+    return any(isinstance(registered(e), MpmEngine) for e in O.engines)
+
+
+def _checkpointAtStop(O):
+    """Saves the state where a signal stopped the run with every Checkpoint engine of O.engines
+    (under mpiexec on every rank together), unless one was saved at this iteration already."""
+    from . import parallel
+    from .checkpoint import Checkpoint
+    from .engines import registered
+    for e in O.engines:
+        c = registered(e)
+        if isinstance(c, Checkpoint) and c._iterLast != O.iter:
+            path = c.save()
+            if parallel.isRoot():
+                print(f"checkpoint at the stop: {path}", flush=True)
 
 
 def _awaitStepEnd(O, poll=0.002):
@@ -350,9 +391,19 @@ def _interruptibleRun(self, nSteps=-1, wait=False):
     thread, where Python cannot handle a signal until the run ends. Here the main thread waits
     in Python (the run in a helper thread) and, on KeyboardInterrupt, pauses the loop, lets the
     current step end, and raises KeyboardInterrupt at that step boundary: the state is the last
-    complete step's. Errors of the run (a solver error, dt refused) are raised as before."""
+    complete step's. Errors of the run (a solver error, dt refused) are raised as before.
+    Under mpiexec, where Ctrl-C reaches the ranks as SIGTERM, it is :func:`runSteps` that runs
+    (every rank stops at the same step; KeyboardInterrupt is raised there on every rank)."""
     if not wait or threading.current_thread() is not threading.main_thread():
         return _originalRun(self, nSteps, wait)
+    from . import parallel
+    if nSteps > 0 and parallel.worldSize() > 1 and _distributedEngines(self):
+        end = runSteps(nSteps)
+        if end.signal:
+            raise KeyboardInterrupt(end.note())
+        if end.early:
+            raise RuntimeError(end.reason)
+        return None
     outcome = {}
 
     def work():

@@ -563,6 +563,8 @@ class MpmEngine(PyRunner):
             after = getattr(phys, "afterStep", None)
             if after is not None:
                 after(self)
+        if parallel.worldSize() > 1 and parallel.agreeOnStop():  # a signal on any rank: all stop here
+            O.pause()
 
     def _restored(self):
         """After eigenmpm.state restored this engine: materials are keyed by object identity,

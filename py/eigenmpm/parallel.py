@@ -59,3 +59,39 @@ def gather(engine, array):
     out = np.empty_like(values)
     out[ids] = values
     return out
+
+
+# --- Stopping together ------------------------------------------------------------------------
+# A signal reaches the ranks at different moments, and a rank that stopped alone would leave the
+# others waiting in the next step's exchange. So a rank that receives one only asks for the
+# stop (requestStop); after each of its steps every distributed MpmEngine takes the largest
+# signal number asked for on any rank (agreeOnStop, one small allreduce) and, when there is
+# one, pauses YADE's loop: every rank ends the same iteration (doc/parallel.md, "Interrupts").
+_stop = {"requested": 0, "agreed": 0}
+
+
+def requestStop(signum):
+    """Asks every rank to stop at the end of a coming step, for the signal `signum` (a number)."""
+    _stop["requested"] = max(_stop["requested"], int(signum))
+
+
+def resetStop():
+    """Forgets any stop asked for or agreed on (at the start of a run; on every rank)."""
+    _stop["requested"] = _stop["agreed"] = 0
+
+
+def agreeOnStop():
+    """The largest signal number for which any rank asked to stop, 0 when none did. Every rank
+    must call it at the same point (MpmEngine calls it after each distributed step); once it is
+    non-zero it stays so until resetStop."""
+    from mpi4py import MPI
+    mine = np.array([_stop["requested"]], dtype=np.int64)
+    agreed = np.zeros(1, dtype=np.int64)
+    MPI.COMM_WORLD.Allreduce(mine, agreed, op=MPI.MAX)
+    _stop["agreed"] = max(_stop["agreed"], int(agreed[0]))
+    return _stop["agreed"]
+
+
+def agreedStop():
+    """The signal number on which the ranks agreed to stop (0: none since the last resetStop)."""
+    return _stop["agreed"]

@@ -145,7 +145,8 @@ def _imread(path):
 
 @pytest.mark.parametrize("signum, status", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
 def test_example_interrupted_writes_its_outputs_and_exits_non_zero(tmp_path, signum, status):
-    proc = runExample(tmp_path, "endTime_us=400")  # about 10^4 steps: still running when signalled
+    # about 10^4 steps: still running when signalled
+    proc = runExample(tmp_path, "endTime_us=400", "--checkpoint-every", "500")
     deadline = time.time() + 240
     while not (tmp_path / "vtk" / "plate-00000000.vtp").exists():
         assert proc.poll() is None and time.time() < deadline, "the run did not start"
@@ -160,6 +161,9 @@ def test_example_interrupted_writes_its_outputs_and_exits_non_zero(tmp_path, sig
     summary = json.load(open(tmp_path / "summary.json"))
     t = checkStoppedOutputs(tmp_path, summary, "interrupted")
     assert summary["steps"] < 10000
+    # the checkpoint of the stop, from which --resume continues
+    newest = sorted((tmp_path / "checkpoints").iterdir())[-1]
+    assert newest.name == f"checkpoint-{summary['steps']:09d}" and (newest / "scene.yade.bz2").exists()
     # the final record: the state at the stop closes the series
     sets = ET.parse(tmp_path / "vtk" / "plate-series.pvd").getroot().find("Collection").findall("DataSet")
     assert float(sets[-1].get("timestep")) == pytest.approx(t, rel=1e-9)

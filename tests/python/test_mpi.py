@@ -6,7 +6,10 @@ the eroded points, the dissipated energy and the crack diagnostics must be the s
 over the ranks (energies, work, reaction) equal to round-off."""
 import json
 import os
+import re
+import signal
 import subprocess
+import time
 
 import numpy as np
 import pytest
@@ -175,20 +178,83 @@ def test_the_3d_plate_cracks_alike_on_one_and_on_two_ranks(tmp_path):
 def test_checkpoints_under_mpiexec_resume_to_the_uninterrupted_run(tmp_path):
     """crack_branching.py --quick --checkpoint-every 300 on 2 ranks (every rank writes its part
     into the checkpoint folder, rank 0 completes it), then --resume from it on 2 ranks: the crack's
-    numbers and eroded.csv of the uninterrupted run."""
+    numbers and eroded.csv of the uninterrupted run. The same run stopped by a signal to mpiexec
+    in the middle (SIGUSR1, which Open MPI passes on to the ranks): both ranks end the same
+    iteration, a checkpoint of it is written, and --resume from it ends as the uninterrupted run."""
     script = os.path.join(ROOT, "examples", "crack_branching.py")
-    full, resumed = tmp_path / "full", tmp_path / "resumed"
+    full, resumed, stopped, afterStop = (tmp_path / d for d in ("full", "resumed", "stopped", "afterStop"))
+
+    def mpiexec(*args):
+        return ["mpiexec", "--oversubscribe", "-n", "2", "yade", "-n", "-j1", "-x", script, "--quick"] + list(args)
+
     for args in (["--out", str(full), "--checkpoint-every", "300"],
                  ["--out", str(resumed), "--resume", str(full / "checkpoints")]):
-        cmd = ["mpiexec", "--oversubscribe", "-n", "2", "yade", "-n", "-j1", "-x", script, "--quick"] + args
-        res = subprocess.run(cmd, env=_env(), capture_output=True, text=True, timeout=600, stdin=subprocess.DEVNULL)
+        res = subprocess.run(mpiexec(*args), env=_env(), capture_output=True, text=True, timeout=600,
+                             stdin=subprocess.DEVNULL)
         assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-3000:]
     newest = sorted((full / "checkpoints").iterdir())[-1]
     assert newest.name == "checkpoint-000000900"
     assert sorted(p.name for p in newest.iterdir() if p.name.endswith(".eigenmpm")) == [
         "scene.yade.bz2.r0of2.eigenmpm", "scene.yade.bz2.r1of2.eigenmpm"]
-    a, b = (json.loads((d / "summary.json").read_text()) for d in (full, resumed))
-    for key in ("initiation_time_us", "branching_time_us", "cut_through_time_us", "dissipated_energy_J",
-                "max_tip_speed_m_s", "steps"):
-        assert b[key] == a[key], key
-    assert (resumed / "eroded.csv").read_text() == (full / "eroded.csv").read_text()
+
+    proc = subprocess.Popen(mpiexec("--out", str(stopped), "--checkpoint-every", "300"), env=_env(),
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, stdin=subprocess.DEVNULL)
+    deadline = time.time() + 300
+    while not (stopped / "checkpoints" / "checkpoint-000000300").exists():
+        assert proc.poll() is None and time.time() < deadline, "the run did not reach its first checkpoint"
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGUSR1)
+    log, _ = proc.communicate(timeout=300)
+    assert proc.returncode == 128 + signal.SIGUSR1, log[-3000:]
+    iters = re.findall(r"rank (\d): run stopped at iteration (\d+)", log)
+    assert sorted(r for r, _ in iters) == ["0", "1"] and iters[0][1] == iters[1][1], log[-3000:]
+    stop = int(iters[0][1])
+    assert 300 < stop < 1000
+    newest = sorted((stopped / "checkpoints").iterdir())[-1]
+    assert newest.name == f"checkpoint-{stop:09d}"
+    assert sorted(p.name for p in newest.iterdir() if p.name.endswith(".eigenmpm")) == [
+        "scene.yade.bz2.r0of2.eigenmpm", "scene.yade.bz2.r1of2.eigenmpm"]
+    part = json.loads((stopped / "summary.json").read_text())
+    assert part["stopped_early"] == "interrupted" and part["steps"] == stop
+    res = subprocess.run(mpiexec("--out", str(afterStop), "--resume", str(stopped / "checkpoints")), env=_env(),
+                         capture_output=True, text=True, timeout=600, stdin=subprocess.DEVNULL)
+    assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-3000:]
+
+    a = json.loads((full / "summary.json").read_text())
+    for d in (resumed, afterStop):
+        b = json.loads((d / "summary.json").read_text())
+        for key in ("initiation_time_us", "branching_time_us", "cut_through_time_us", "dissipated_energy_J",
+                    "max_tip_speed_m_s", "steps"):
+            assert b[key] == a[key], (d.name, key)
+        assert (d / "eroded.csv").read_text() == (full / "eroded.csv").read_text(), d.name
+
+
+def test_ctrl_c_to_mpiexec_stops_every_rank_at_the_same_iteration_and_saves_it(tmp_path):
+    """Ctrl-C in the terminal sends SIGINT to mpiexec. Open MPI then sends the ranks SIGTERM
+    odls_base_sigkill_timeout seconds later (1 by default; 5 here, for a loaded machine) and
+    SIGKILL as long after that. Every rank stops at the end of the same step, the checkpoint of
+    that step is written with every rank's part, and the summary says so."""
+    script = os.path.join(ROOT, "examples", "crack_branching.py")
+    out = tmp_path / "out"
+    env = dict(_env(), OMPI_MCA_odls_base_sigkill_timeout="5")
+    proc = subprocess.Popen(["mpiexec", "--oversubscribe", "-n", "2", "yade", "-n", "-j1", "-x", script, "--quick",
+                             "endTime_us=400", "--out", str(out), "--checkpoint-every", "200"], env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, stdin=subprocess.DEVNULL)
+    deadline = time.time() + 300
+    while not (out / "checkpoints" / "checkpoint-000000200").exists():
+        assert proc.poll() is None and time.time() < deadline, "the run did not reach its first checkpoint"
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGINT)
+    log, _ = proc.communicate(timeout=300)
+    assert proc.returncode != 0
+    iters = re.findall(r"rank (\d): run stopped at iteration (\d+), t = .*, ([0-9.]+) s after SIGTERM", log)
+    assert sorted(r for r, _, _ in iters) == ["0", "1"] and iters[0][1] == iters[1][1], log[-3000:]
+    assert all(float(latency) < 1.0 for _, _, latency in iters)
+    stop = int(iters[0][1])
+    assert 200 < stop < 10000
+    newest = sorted((out / "checkpoints").iterdir())[-1]
+    assert newest.name == f"checkpoint-{stop:09d}", log[-3000:]
+    assert sorted(p.name for p in newest.iterdir() if p.name.endswith(".eigenmpm")) == [
+        "scene.yade.bz2.r0of2.eigenmpm", "scene.yade.bz2.r1of2.eigenmpm"]
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["stopped_early"] == "interrupted" and summary["steps"] == stop
