@@ -90,6 +90,12 @@ public:
         sent += static_cast<double>(mine.size());
         return MpiTransport::allGather(mine);
     }
+    std::vector<std::vector<char>> allToAll(const std::vector<std::vector<char>>& toEach) override
+    {
+        for (int r = 0; r < size(); ++r)
+            if (r != rank()) sent += static_cast<double>(toEach[r].size());
+        return MpiTransport::allToAll(toEach);
+    }
 };
 
 CountingTransport* mpiTransport()

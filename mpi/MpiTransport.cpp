@@ -68,4 +68,22 @@ std::vector<std::vector<char>> MpiTransport::allGather(const std::vector<char>& 
     return out;
 }
 
+std::vector<std::vector<char>> MpiTransport::allToAll(const std::vector<std::vector<char>>& toEach)
+{
+    std::vector<int> sendCounts(size_), recvCounts(size_), sendOffsets(size_, 0), recvOffsets(size_, 0);
+    for (int r = 0; r < size_; ++r) sendCounts[r] = static_cast<int>(toEach[r].size());
+    MPI_Alltoall(sendCounts.data(), 1, MPI_INT, recvCounts.data(), 1, MPI_INT, comm_);
+    for (int r = 1; r < size_; ++r) {
+        sendOffsets[r] = sendOffsets[r - 1] + sendCounts[r - 1];
+        recvOffsets[r] = recvOffsets[r - 1] + recvCounts[r - 1];
+    }
+    std::vector<char> out(sendOffsets[size_ - 1] + sendCounts[size_ - 1]), in(recvOffsets[size_ - 1] + recvCounts[size_ - 1]);
+    for (int r = 0; r < size_; ++r) std::copy(toEach[r].begin(), toEach[r].end(), out.begin() + sendOffsets[r]);
+    MPI_Alltoallv(out.data(), sendCounts.data(), sendOffsets.data(), MPI_BYTE, in.data(), recvCounts.data(),
+                  recvOffsets.data(), MPI_BYTE, comm_);
+    std::vector<std::vector<char>> from(size_);
+    for (int r = 0; r < size_; ++r) from[r].assign(in.begin() + recvOffsets[r], in.begin() + recvOffsets[r] + recvCounts[r]);
+    return from;
+}
+
 }  // namespace emp

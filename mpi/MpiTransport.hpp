@@ -18,6 +18,7 @@ public:
     void sum(double* v, int n) override;
     void max(double* v, int n) override;
     std::vector<std::vector<char>> allGather(const std::vector<char>& mine) override;
+    std::vector<std::vector<char>> allToAll(const std::vector<std::vector<char>>& toEach) override;
 
 private:
     MPI_Comm comm_;

@@ -22,21 +22,9 @@ void Distribution<D>::partition(MaterialPoints<D>& P, const std::vector<int>& st
         require(false, "number of ranks", size_,
                 "at most the number of strips of " + std::to_string(Scheduler<D>::stripWidth) +
                     " cells along the last axis, " + std::to_string(numStrips) + " here (a smaller h, or fewer ranks)");
-    // Rank r starts at the first strip where the points before it reach r/size of all; at least
-    // one strip each.
-    std::vector<long> count(numStrips, 0);
+    std::vector<double> count(numStrips, 0.0);
     for (int s : stripOf) ++count[s];
-    const long total = static_cast<long>(stripOf.size());
-    std::vector<int> first(size_ + 1, 0);
-    first[size_] = numStrips;
-    long before = 0;  // points in the strips before s
-    int s = 0;
-    for (int r = 1; r < size_; ++r) {
-        while (s < numStrips && before * size_ < total * r) before += count[s++];
-        first[r] = std::min(std::max(s, first[r - 1] + 1), numStrips - (size_ - r));
-        for (; s < first[r]; ++s) before += count[s];
-        for (; s > first[r]; --s) before -= count[s - 1];
-    }
+    const std::vector<int> first = balancedRanges(count, size_);
     setRanges(first, S, nLast);
     // Keep this rank's points, numbered by their index in the whole scene.
     std::vector<int> mine;
@@ -54,6 +42,26 @@ void Distribution<D>::partition(MaterialPoints<D>& P, const std::vector<int>& st
     });
 }
 
+template <int D> std::vector<int> Distribution<D>::balancedRanges(const std::vector<double>& count, int ranks)
+{
+    // Rank r starts at the first strip where the points before it reach r/ranks of all; at least
+    // one strip each. (Counts are whole numbers: the sums are exact.)
+    const int numStrips = static_cast<int>(count.size());
+    double total = 0;
+    for (double c : count) total += c;
+    std::vector<int> first(ranks + 1, 0);
+    first[ranks] = numStrips;
+    double before = 0;  // points in the strips before s
+    int s = 0;
+    for (int r = 1; r < ranks; ++r) {
+        while (s < numStrips && before * ranks < total * r) before += count[s++];
+        first[r] = std::min(std::max(s, first[r - 1] + 1), numStrips - (ranks - r));
+        for (; s < first[r]; ++s) before += count[s];
+        for (; s > first[r]; --s) before -= count[s - 1];
+    }
+    return first;
+}
+
 template <int D> void Distribution<D>::setRanges(const std::vector<int>& first, int S, int nLast)
 {
     require(static_cast<int>(first.size()) == size_ + 1, "strip ranges", first.size(), "one per rank, and the end");
@@ -65,6 +73,7 @@ template <int D> void Distribution<D>::setRangesOf(int S, int nLast)
 {
     constexpr int W = Scheduler<D>::stripWidth;
     S_ = S;
+    nLast_ = nLast;
     const int a = first_[rank_], b = first_[rank_ + 1];
     // A strip s holds the points of base node s W .. s W + W - 1, which reach up to S - 1 planes
     // further.

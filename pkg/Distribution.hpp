@@ -53,6 +53,9 @@ public:
     virtual void max(double* v, int n) = 0;
     /// Every rank's bytes, in rank order, on every rank.
     virtual std::vector<std::vector<char>> allGather(const std::vector<char>& mine) = 0;
+    /// Sends toEach[r] to rank r (one buffer per rank, this one's included) and returns what
+    /// each rank sent to this one, in rank order. Every rank calls it.
+    virtual std::vector<std::vector<char>> allToAll(const std::vector<std::vector<char>>& toEach) = 0;
 };
 
 /// A byte buffer written and read in the same order: plain values (numbers, fixed-size Eigen
@@ -121,6 +124,22 @@ public:
     /// The same ranges as another run's (a restart): first[r] is rank r's first strip.
     void setRanges(const std::vector<int>& first, int S, int nLast);
     const std::vector<int>& firstStrips() const { return first_; }
+    /// The first strip of each of `ranks` ranges (and numStrips at the end) that split the points
+    /// counted per strip in `count` nearly equally, at least one strip each.
+    static std::vector<int> balancedRanges(const std::vector<double>& count, int ranks);
+
+    /// Load balance when fragments fly apart: counts the points of every strip over all ranks,
+    /// and when the rank holding most holds more than `tolerance` times the mean, chooses
+    /// balanced ranges again (balancedRanges; each at least `minStrips` strips wide, else
+    /// nothing changes) and sends every point to the rank whose new range holds its strip, from
+    /// any rank to any rank, keeping the points sorted by globalId. Results do not depend on the
+    /// ranges (doc/parallel.md), so nothing but the ranks' shares changes. Returns whether the
+    /// ranges changed; the same on every rank. Every rank calls it.
+    template <class StripOf>
+    bool rebalance(MaterialPoints<D>& P, StripOf&& stripOf, double tolerance, int minStrips);
+    /// The largest number of points on one rank over the mean, from the last count of rebalance
+    /// (after it moved points, the new ranges'); 0 before any.
+    double imbalance() const { return imbalance_; }
 
     /// Sends the points whose strip (stripOf(x)) left this rank's range to the neighbour that
     /// owns it and takes theirs, keeping the points sorted by globalId. Throws SimulationError
@@ -182,7 +201,8 @@ private:
     int rank_ = 0, size_ = 1;
     std::vector<int> first_;  ///< first strip of every rank, and the number of strips at the end
     int planeLo_ = 0, planeHi_ = 0, ownedLo_ = 0, ownedHi_ = 0, leftShared_ = 0, rightShared_ = 0;
-    int S_ = 0;
+    int S_ = 0, nLast_ = 0;
+    double imbalance_ = 0;
 };
 
 template <int D>
@@ -250,6 +270,93 @@ void Distribution<D>::migrate(MaterialPoints<D>& P, StripOf&& stripOf)
     if (skipped > 0)
         throw SimulationError("EigenMPM: a point moved past a whole neighbouring rank's strips in one step; "
                               "use fewer ranks or a smaller dt");
+}
+
+template <int D>
+template <class StripOf>
+bool Distribution<D>::rebalance(MaterialPoints<D>& P, StripOf&& stripOf, double tolerance, int minStrips)
+{
+    const int numStrips = first_.back(), n = static_cast<int>(P.size());
+    std::vector<int> strip(n);
+    std::vector<double> count(numStrips, 0.0);
+    for (int p = 0; p < n; ++p) {
+        strip[p] = stripOf(P.x[p]);
+        if (strip[p] >= 0) ++count[strip[p]];
+    }
+    t_->sum(count.data(), numStrips);
+    const auto worst = [&](const std::vector<int>& first) {
+        double total = 0, most = 0;
+        for (int r = 0; r < size_; ++r) {
+            double load = 0;
+            for (int s = first[r]; s < first[r + 1]; ++s) load += count[s];
+            total += load;
+            most = std::max(most, load);
+        }
+        return total > 0 ? most * size_ / total : 1.0;
+    };
+    imbalance_ = worst(first_);
+    if (imbalance_ <= tolerance) return false;
+    const std::vector<int> next = balancedRanges(count, size_);
+    for (int r = 0; r < size_; ++r)
+        if (next[r + 1] - next[r] < minStrips) return false;
+    const double better = worst(next);
+    if (next == first_ || better >= imbalance_) return false;
+    // Every point to the owner of its strip in the new ranges (a point off the grid stays: the
+    // step reports it).
+    std::vector<std::vector<int>> leaving(size_);
+    std::vector<int> keep;
+    keep.reserve(n);
+    for (int p = 0; p < n; ++p) {
+        const int to = strip[p] < 0 ? rank_
+                                    : static_cast<int>(std::upper_bound(next.begin(), next.end(), strip[p]) - next.begin()) - 1;
+        (to == rank_ ? keep : leaving[to]).push_back(p);
+    }
+    std::vector<std::vector<char>> out(size_);
+    for (int r = 0; r < size_; ++r) {
+        if (r == rank_) continue;
+        Bytes b;
+        b.put(static_cast<int>(leaving[r].size()));
+        P.forEachArray([&](const char* name, auto& a) {
+            if (!P.carries(name)) return;
+            for (int p : leaving[r]) b.put(a[p]);
+        });
+        out[r].swap(b.data);
+    }
+    std::vector<std::vector<char>> in = t_->allToAll(out);
+    std::vector<Bytes> from(size_);
+    std::vector<int> arriving(size_, 0);
+    std::size_t total = keep.size();
+    for (int r = 0; r < size_; ++r) {
+        if (r == rank_ || in[r].empty()) continue;
+        from[r].data.swap(in[r]);
+        arriving[r] = from[r].get<int>();
+        total += arriving[r];
+    }
+    P.forEachArray([&](const char* name, auto& a) {
+        if (!P.carries(name)) return;
+        using T = typename std::decay_t<decltype(a)>::value_type;
+        std::vector<T> merged;
+        merged.reserve(total);
+        for (int p : keep) merged.push_back(a[p]);
+        for (int r = 0; r < size_; ++r)
+            for (int k = 0; k < arriving[r]; ++k) merged.push_back(from[r].get<T>());
+        a.swap(merged);
+    });
+    // Sorted by globalId again, as one process numbers them.
+    std::vector<int> order(total);
+    for (std::size_t k = 0; k < total; ++k) order[k] = static_cast<int>(k);
+    const std::vector<std::int32_t>& id = P.globalId;
+    std::sort(order.begin(), order.end(), [&](int a, int b) { return id[a] < id[b]; });
+    P.forEachArray([&](const char* name, auto& a) {
+        if (!P.carries(name)) return;
+        std::decay_t<decltype(a)> sorted(a.size());
+        for (std::size_t k = 0; k < total; ++k) sorted[k] = a[order[k]];
+        a.swap(sorted);
+    });
+    first_ = next;
+    setRangesOf(S_, nLast_);
+    imbalance_ = better;
+    return true;
 }
 
 }  // namespace emp

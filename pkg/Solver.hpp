@@ -125,6 +125,12 @@ public:
     /// not yet distributed again: distribute() with the same number of ranks resumes it, and it
     /// refuses to step before.
     bool distributedPart() const { return points_.distributed && !dist_; }
+    /// Load balance of a distributed run (Distribution::rebalance): before every `period`-th
+    /// step the ranges of strips are chosen again when the rank that holds most points holds
+    /// more than `tolerance` (>= 1) times the mean; period 0: never. The results do not change.
+    void setRebalance(double tolerance, int period);
+    /// How many times the ranges changed in this process's run.
+    int rebalances() const { return rebalances_; }
 
     // --- time stepping ------------------------------------------------------------------
     /// APIC: sets point p's affine velocity (its velocity gradient, 1/s) for the next transfer,
@@ -303,6 +309,8 @@ private:
     /// A rank's part loaded from an archive (loadState): its rank, the ranks and their strips.
     int resumeRank_ = 0, resumeRanks_ = 1;
     std::vector<int> resumeStrips_;
+    double rebalanceTolerance_ = 1.25;
+    int rebalancePeriod_ = 100, rebalances_ = 0;
     std::vector<NodeRecord<D>> recordsLeft_, recordsRight_;
     std::vector<std::vector<std::pair<int, int>>> tractionLocal_;  ///< per traction: (point, position) here
     std::vector<double> workBefore_;  ///< velocity conditions' work before this step (distributed)

@@ -3,6 +3,7 @@
 // step's hot passes in Solver.cpp are compiled as before (with them in Solver.cpp GCC generated a
 // stress pass of 3 % more instructions for the default 2D step).
 #include <algorithm>
+#include <cmath>
 #include <string>
 
 #include "CrackTransport.hpp"
@@ -38,6 +39,12 @@ template <int D, class K> void Solver<D, K>::distributePoints()
         }
     } else {
         dist_->migrate(points_, stripOf);
+        if (rebalancePeriod_ > 0 && steps_ % rebalancePeriod_ == 0) {
+            // A range must hold erosion's reach, as at the first partition.
+            const double width = Scheduler<D>::stripWidth * grid_.h;
+            const int minStrips = erosion_ ? static_cast<int>(std::ceil((erosion_->settings().kappa + 2 * grid_.h) / width)) : 1;
+            if (dist_->rebalance(points_, stripOf, rebalanceTolerance_, std::max(minStrips, 1))) ++rebalances_;
+        }
     }
     // The traction points on this rank, by their position in each condition's list.
     tractionLocal_.assign(tractions_.size(), {});
@@ -116,6 +123,14 @@ template <int D, class K> void Solver<D, K>::distribute(std::shared_ptr<Transpor
     dist_->setPhantomNodes(&phantom_);
 }
 
+template <int D, class K> void Solver<D, K>::setRebalance(double tolerance, int period)
+{
+    require(tolerance >= 1 && std::isfinite(tolerance), "rebalance", tolerance, "1 <= rebalance < inf");
+    require(period >= 0, "rebalancePeriod", period, "0 (never) or more steps");
+    rebalanceTolerance_ = tolerance;
+    rebalancePeriod_ = period;
+}
+
 template <int D, class K> void Solver<D, K>::checkDistributable() const
 {
     const std::string not_ = "; a distributed run (doc/parallel.md) does not have it yet: run on one process";
@@ -135,7 +150,8 @@ template <int D, class K> void Solver<D, K>::checkDistributable() const
     template void Solver<D, K>::addNodeForce(int, const Vec<D>&, std::int64_t, std::int64_t);     \
     template void Solver<D, K>::transportCracks(double);                                          \
     template void Solver<D, K>::distribute(std::shared_ptr<Transport>);                           \
-    template void Solver<D, K>::checkDistributable() const;
+    template void Solver<D, K>::checkDistributable() const;                                       \
+    template void Solver<D, K>::setRebalance(double, int);
 EMP_SOLVER_CONFIGURATIONS(EMP_INSTANTIATE)
 #undef EMP_INSTANTIATE
 

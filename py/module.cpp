@@ -710,6 +710,15 @@ template <class Sv> struct Bind {
             .add_property("rank", +[](const Sv& s) { return s.distribution() ? s.distribution()->rank() : 0; })
             .add_property("ranks", +[](const Sv& s) { return s.distribution() ? s.distribution()->size() : 1; })
             .add_property("distributedPart", &Sv::distributedPart)
+            .def("setRebalance", &Sv::setRebalance, (bp::arg("tolerance"), bp::arg("period")))
+            .add_property("rebalances", &Sv::rebalances)
+            .add_property("imbalance", +[](const Sv& s) { return s.distribution() ? s.distribution()->imbalance() : 0.0; })
+            .def("rankStrips", +[](const Sv& s) {
+                bp::list out;
+                if (s.distribution())
+                    for (int f : s.distribution()->firstStrips()) out.append(f);
+                return out;
+            })
             .def("damage", &damage)
             .def("volume", &volume)
             .def("mass", &mass)

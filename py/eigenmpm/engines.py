@@ -263,6 +263,12 @@ class MpmEngine(PyRunner):
                                         "cracks (with crackContact)", bounds="[0, inf)", fixed=True),
         Param("bodyFriction", 0.0, "", "Coulomb friction coefficient between the bodies of this engine "
                                        "(points filled with different body ids)", bounds="[0, inf)", fixed=True),
+        Param("rebalance", 1.25, "", "under mpiexec: the ranks' strips of the grid are chosen again when the "
+                                     "rank holding most points holds more than this times the mean "
+                                     "(doc/parallel.md, 'Load balance'); the results do not change",
+              bounds="[1, inf)"),
+        Param("rebalancePeriod", 100, "steps", "under mpiexec: how often the balance is checked (0: never)",
+              kind="int", bounds="[0, inf)"),
     )
 
     def __init__(self, **kw):
@@ -552,6 +558,8 @@ class MpmEngine(PyRunner):
         for bc in self.bcs.values():
             bc._update(t)
         threads = self.threads if self.threads else O.numThreads
+        if self.solver.ranks > 1:
+            self.solver.setRebalance(float(self.rebalance), int(self.rebalancePeriod))
         try:
             self.solver.step(O.dt, int(threads))
         except Exception as err:

@@ -170,6 +170,43 @@ TEST(Distribution, FlyingBlockMigratesWithApicAndCorotationalUpdate)
     }
 }
 
+TEST(Distribution, RebalancesAFlyingBlockBitwiseAsOnOneProcess)
+{
+    // A block flies up through the ranks' strips: without rebalancing the last rank ends with
+    // every point. Checked every 5 steps at a tolerance of 1.05, the ranges follow it, points
+    // move between any two ranks, and every point stays bitwise the one-process point.
+    auto settings = emptest::typicalSettings(0.01);
+    settings.gravity = Eigen::Vector3d(0, -9.81, 0);
+    const auto build = [](emp::Solver<2, emp::GimpKernel>& s) {
+        const int m = s.addMaterial(1e6, 0.3, 1000, false, emp::lawIndex("spectral"));
+        s.setDomain(Eigen::Vector3d(-0.05, -0.05, 0), Eigen::Vector3d(0.25, 0.6, 0));
+        emptest::addBlock<2, emp::GimpKernel>(s, {2, 2}, {12, 10}, m, [](const Vec<2>&) { return Vec<2>(0.5, 8.0); });
+        s.setRebalance(1.05, 5);
+    };
+    const auto o = compare<2, emp::GimpKernel>(settings, build, 300, 0.5);
+    EXPECT_EQ(o.differing, 0);
+    // The same scene distributed alone, to read its balance.
+    emp::Solver<2, emp::GimpKernel> dist(settings);
+    build(dist);
+    dist.distribute(transport());
+    const double dt = 0.5 * dist.criticalTimeStep();
+    double most = 0;
+    for (int n = 0; n < 300; ++n) {
+        dist.step(dt, 1);
+        double counts[2] = {static_cast<double>(dist.points().size()), 0};
+        transport()->max(counts, 1);
+        most = counts[0];
+    }
+    if (transport()->size() > 1) {
+        EXPECT_GT(dist.rebalances(), 2);
+        const double mean = static_cast<double>(o.points) / transport()->size();
+        EXPECT_LE(most, 1.6 * mean) << "largest rank " << most << " points, mean " << mean;
+        EXPECT_LE(dist.distribution()->imbalance(), 1.6);
+    }
+    EXPECT_THROW(dist.setRebalance(0.9, 5), emp::ParameterError);
+    EXPECT_THROW(dist.setRebalance(1.2, -1), emp::ParameterError);
+}
+
 TEST(Distribution, Block3dUnderGravityOnSupports)
 {
     auto settings = emptest::typicalSettings(0.01);

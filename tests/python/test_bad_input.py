@@ -173,6 +173,8 @@ CASES = [
     ("engine massCutoff<0", lambda: engine(massCutoff=-0.1), V, "massCutoff = -0.1 is invalid"),
     ("engine threads=0", lambda: engine(threads=0), V, "threads = 0 is invalid; allowed: integer, threads >= 1"),
     ("engine threads=1.5", lambda: engine(threads=1.5), V, "threads = 1.5 is invalid; allowed: integer"),
+    ("engine rebalance=0.5", lambda: engine(rebalance=0.5), V, "rebalance = 0.5 is invalid; allowed: "),
+    ("engine rebalancePeriod=-1", lambda: engine(rebalancePeriod=-1), V, "rebalancePeriod = -1 is invalid; allowed: "),
     ("engine label=3", lambda: engine(label=3), T, "label = 3 is invalid; allowed: string"),
     ("engine unknown", lambda: engine(hh=2), T, "unknown parameter(s) hh (MpmEngine)"),
     # --- ElasticMaterial(...) ----------------------------------------------------------------
