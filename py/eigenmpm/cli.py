@@ -337,11 +337,18 @@ def finish(end, out=None):
             e.finalRecord()
     if not end.early:
         return
+    from . import parallel
     note = end.note()
-    if out is not None:
-        for path in sorted(_figuresSince(out, end.started)):
-            markStoppedEarly(path, note)
-    print(f"run {note}; outputs written; exit status {end.exitStatus}", flush=True)
+    try:
+        if out is not None and parallel.isRoot():  # the root writes the figures (doc/parallel.md)
+            for path in sorted(_figuresSince(out, end.started)):
+                markStoppedEarly(path, note)
+        print(f"run {note}; outputs written; exit status {end.exitStatus}", flush=True)
+    finally:
+        if parallel.worldSize() > 1:
+            # mpiexec aborts the job when a rank exits non-zero: the others wait for the root.
+            from mpi4py import MPI
+            MPI.COMM_WORLD.Barrier()
     sys.exit(end.exitStatus)
 
 

@@ -197,25 +197,17 @@ def test_checkpoints_under_mpiexec_resume_to_the_uninterrupted_run(tmp_path):
     assert sorted(p.name for p in newest.iterdir() if p.name.endswith(".eigenmpm")) == [
         "scene.yade.bz2.r0of2.eigenmpm", "scene.yade.bz2.r1of2.eigenmpm"]
 
-    proc = subprocess.Popen(mpiexec("--out", str(stopped), "--checkpoint-every", "300"), env=_env(),
-                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, stdin=subprocess.DEVNULL)
-    deadline = time.time() + 300
-    while not (stopped / "checkpoints" / "checkpoint-000000300").exists():
-        assert proc.poll() is None and time.time() < deadline, "the run did not reach its first checkpoint"
-        time.sleep(0.05)
-    proc.send_signal(signal.SIGUSR1)
-    log, _ = proc.communicate(timeout=300)
-    assert proc.returncode == 128 + signal.SIGUSR1, log[-3000:]
-    iters = re.findall(r"rank (\d): run stopped at iteration (\d+)", log)
-    assert sorted(r for r, _ in iters) == ["0", "1"] and iters[0][1] == iters[1][1], log[-3000:]
-    stop = int(iters[0][1])
+    returncode, log = _signalled(mpiexec("--out", str(stopped), "--checkpoint-every", "300"), _env(),
+                                 stopped / "checkpoints" / "checkpoint-000000300", signal.SIGUSR1)
+    assert returncode == 128 + signal.SIGUSR1, log[-3000:]
+    stop, _ = _stoppedTogether(stopped, log, "SIGUSR1")
     assert 300 < stop < 1000
-    newest = sorted((stopped / "checkpoints").iterdir())[-1]
-    assert newest.name == f"checkpoint-{stop:09d}"
-    assert sorted(p.name for p in newest.iterdir() if p.name.endswith(".eigenmpm")) == [
-        "scene.yade.bz2.r0of2.eigenmpm", "scene.yade.bz2.r1of2.eigenmpm"]
-    part = json.loads((stopped / "summary.json").read_text())
-    assert part["stopped_early"] == "interrupted" and part["steps"] == stop
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    for name in ("damage.png", "energy.png", "tip_speed.png"):  # marked stopped early, by the root alone
+        assert np.allclose(plt.imread(str(stopped / name))[2, 2, :3], (0xb0 / 255, 0, 0x20 / 255), atol=0.01), name
+    assert not list(stopped.glob("*.part.png"))
     res = subprocess.run(mpiexec("--out", str(afterStop), "--resume", str(stopped / "checkpoints")), env=_env(),
                          capture_output=True, text=True, timeout=600, stdin=subprocess.DEVNULL)
     assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-3000:]
@@ -237,24 +229,39 @@ def test_ctrl_c_to_mpiexec_stops_every_rank_at_the_same_iteration_and_saves_it(t
     script = os.path.join(ROOT, "examples", "crack_branching.py")
     out = tmp_path / "out"
     env = dict(_env(), OMPI_MCA_odls_base_sigkill_timeout="5")
-    proc = subprocess.Popen(["mpiexec", "--oversubscribe", "-n", "2", "yade", "-n", "-j1", "-x", script, "--quick",
-                             "endTime_us=400", "--out", str(out), "--checkpoint-every", "200"], env=env,
-                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, stdin=subprocess.DEVNULL)
-    deadline = time.time() + 300
-    while not (out / "checkpoints" / "checkpoint-000000200").exists():
-        assert proc.poll() is None and time.time() < deadline, "the run did not reach its first checkpoint"
-        time.sleep(0.05)
-    proc.send_signal(signal.SIGINT)
-    log, _ = proc.communicate(timeout=300)
-    assert proc.returncode != 0
-    iters = re.findall(r"rank (\d): run stopped at iteration (\d+), t = .*, ([0-9.]+) s after SIGTERM", log)
-    assert sorted(r for r, _, _ in iters) == ["0", "1"] and iters[0][1] == iters[1][1], log[-3000:]
-    assert all(float(latency) < 1.0 for _, _, latency in iters)
-    stop = int(iters[0][1])
+    returncode, log = _signalled(["mpiexec", "--oversubscribe", "-n", "2", "yade", "-n", "-j1", "-x", script, "--quick",
+                                  "endTime_us=400", "--out", str(out), "--checkpoint-every", "200"], env,
+                                 out / "checkpoints" / "checkpoint-000000200", signal.SIGINT)
+    assert returncode != 0
+    stop, latencies = _stoppedTogether(out, log, "SIGTERM")
+    assert all(latency < 1.0 for latency in latencies)
     assert 200 < stop < 10000
+
+
+def _signalled(cmd, env, started, signum):
+    """Starts cmd, sends it signum once the file `started` exists; returns (exit status, output)."""
+    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                            stdin=subprocess.DEVNULL)
+    deadline = time.time() + 300
+    while not started.exists():
+        assert proc.poll() is None and time.time() < deadline, f"the run did not reach {started.name}"
+        time.sleep(0.05)
+    proc.send_signal(signum)
+    log, _ = proc.communicate(timeout=300)
+    return proc.returncode, log
+
+
+def _stoppedTogether(out, log, name):
+    """Both ranks of the run in `out` stopped at the same iteration after the signal `name`, the
+    newest checkpoint is that iteration's with both ranks' parts, and the summary says so.
+    Returns (iteration, the ranks' seconds from the signal to the stop)."""
+    found = re.findall(r"rank (\d): run stopped at iteration (\d+), t = .*, ([0-9.]+) s after " + name, log)
+    assert sorted(r for r, _, _ in found) == ["0", "1"] and found[0][1] == found[1][1], log[-3000:]
+    stop = int(found[0][1])
     newest = sorted((out / "checkpoints").iterdir())[-1]
     assert newest.name == f"checkpoint-{stop:09d}", log[-3000:]
     assert sorted(p.name for p in newest.iterdir() if p.name.endswith(".eigenmpm")) == [
         "scene.yade.bz2.r0of2.eigenmpm", "scene.yade.bz2.r1of2.eigenmpm"]
     summary = json.loads((out / "summary.json").read_text())
     assert summary["stopped_early"] == "interrupted" and summary["steps"] == stop
+    return stop, [float(latency) for _, _, latency in found]
