@@ -214,30 +214,37 @@ class EigenErosion(PyRunner):
             return []
         window = self.tipWindow if self.tipWindow else 50 * O.dt
         now = mpm.solver.time
-        x = parallel.gather(mpm, mpm.solver.positions())  # (every rank's points, by id)
-        origin = self._originPoint(x, events)
-        ids = self._mainCrack(x, [p for p, _, _ in events], origin)
-        main = set(ids.tolist())
-        recent = np.array([p for p, _, t in events if t >= now - window and p in main])
-        if len(recent) == 0:
+        x = self._erodedPositions(mpm, events)
+        origin = self._originPoint(x)
+        main = self._mainCrack(x, origin)
+        recent = main & (np.array([t for _, _, t in events]) >= now - window)
+        if not np.any(recent):
             return []
         R2 = (6.0 * self.core.kappa) ** 2
-        r = np.sum((x[ids] - origin) ** 2, axis=1)
-        rr = np.sum((x[recent] - origin) ** 2, axis=1)
+        xm, xr = x[main], x[recent]
+        r = np.sum((xm - origin) ** 2, axis=1)
+        rr = np.sum((xr - origin) ** 2, axis=1)
         order = np.argsort(-rr)
         tips = []
         for k in order:
-            p = x[recent[k]]
-            near = np.sum((x[ids] - p) ** 2, axis=1) <= R2
+            p = xr[k]
+            near = np.sum((xm - p) ** 2, axis=1) <= R2
             if np.any(r[near] > rr[k]):
                 continue
             if all(np.sum((p - t) ** 2) > R2 for t in tips):
                 tips.append(p.copy())
         return tips
 
-    def _originPoint(self, x, events):
+    @staticmethod
+    def _erodedPositions(mpm, events):
+        """Where the eroded points are now, in the order of the events. Under mpiexec only these
+        points' positions travel between the ranks (parallel.positionsOf), not every point's."""
+        return parallel.positionsOf(mpm, np.array([p for p, _, _ in events], dtype=np.int64))
+
+    def _originPoint(self, x):
+        """The crack origin: given, or where the first eroded point (x[0]) was when first asked."""
         if self._origin is None:
-            self._origin = x[events[0][0]].copy()
+            self._origin = x[0].copy()
         return self._origin
 
     def frontDistance(self, mpm=None):
@@ -246,21 +253,20 @@ class EigenErosion(PyRunner):
         events = self.core.events() if self.core else []
         if not events:
             return 0.0
-        x = parallel.gather(mpm, mpm.solver.positions())  # (every rank's points, by id)
-        origin = self._originPoint(x, events)
-        ids = self._mainCrack(x, [p for p, _, _ in events], origin)
-        return float(np.sqrt(np.max(np.sum((x[ids] - origin) ** 2, axis=1))))
+        x = self._erodedPositions(mpm, events)
+        origin = self._originPoint(x)
+        main = self._mainCrack(x, origin)
+        return float(np.sqrt(np.max(np.sum((x[main] - origin) ** 2, axis=1))))
 
-    def _mainCrack(self, x, ids, origin):
-        """The eroded points of the crack grown from the origin: those linked to the eroded point
-        nearest the origin through eroded points in neighbouring cells of size R = 6 kappa.
-        Erosion elsewhere (under a support, a second crack) is left out of the tips and the
-        front, so that it cannot make the front jump."""
-        ids = np.asarray(ids)
+    def _mainCrack(self, x, origin):
+        """Which eroded points (at x, one row each) belong to the crack grown from the origin:
+        those linked to the eroded point nearest the origin through eroded points in neighbouring
+        cells of size R = 6 kappa. Erosion elsewhere (under a support, a second crack) is left
+        out of the tips and the front, so that it cannot make the front jump."""
         R = 6.0 * self.core.kappa
-        cell = np.floor(x[ids] / R).astype(np.int64)
+        cell = np.floor(x / R).astype(np.int64)
         occupied = {tuple(c) for c in cell}
-        start = tuple(cell[np.argmin(np.sum((x[ids] - origin) ** 2, axis=1))])
+        start = tuple(cell[np.argmin(np.sum((x - origin) ** 2, axis=1))])
         reached, stack = {start}, [start]
         offsets = list(np.ndindex(3, 3, 3))  # in 2D z = 0 throughout, so z offsets find nothing
         while stack:
@@ -270,8 +276,7 @@ class EigenErosion(PyRunner):
                 if n in occupied and n not in reached:
                     reached.add(n)
                     stack.append(n)
-        keep = np.array([tuple(c) in reached for c in cell])
-        return ids[keep]
+        return np.array([tuple(c) in reached for c in cell])
 
     def record(self, mpm=None):
         mpm = mpm or self._mpm

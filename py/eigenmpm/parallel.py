@@ -61,6 +61,30 @@ def gather(engine, array):
     return out
 
 
+def positionsOf(engine, ids):
+    """Positions (one row each) of the points of `engine` whose ids in the one-process scene
+    are `ids`, in that order, on every rank; every rank must call it. Under mpiexec only these
+    points' positions are sent (each rank finds its own among them), not every rank's points
+    as with ``gather``: the crack diagnostics read the eroded points this way."""
+    ids = np.asarray(ids, dtype=np.int64)
+    solver = engine.solver
+    x = np.asarray(solver.positions())
+    if solver.ranks == 1:
+        return x[ids]
+    mine = np.asarray(solver.globalIds(), dtype=np.int64)  # sorted
+    k = np.minimum(np.searchsorted(mine, ids), max(len(mine) - 1, 0))
+    here = (mine[k] == ids) if len(mine) else np.zeros(len(ids), dtype=bool)
+    from mpi4py import MPI
+    comm = MPI.COMM_WORLD
+    found = np.concatenate(comm.allgather(ids[here]))
+    where = np.concatenate(comm.allgather(x[k[here]].reshape(-1, 3)))
+    order = np.argsort(found)
+    at = order[np.searchsorted(found[order], ids)]
+    if not np.array_equal(found[at], ids):
+        raise ValueError("EigenMPM: positionsOf: some ids name no point of any rank")
+    return where[at]
+
+
 # --- Stopping together ------------------------------------------------------------------------
 # A signal reaches the ranks at different moments, and a rank that stopped alone would leave the
 # others waiting in the next step's exchange. So a rank that receives one only asks for the

@@ -174,8 +174,8 @@ def test_stray_erosion_far_away_is_not_part_of_the_main_crack():
     crack = [(0.01 + 0.0005 * i, 0.02, 0.0) for i in range(20)]   # a crack from (0.01, 0.02)
     stray = [(0.09, 0.001, 0.0), (0.0905, 0.001, 0.0)]           # erosion under a far support
     x = np.array(crack + stray)
-    main = er._mainCrack(x, list(range(len(x))), np.array([0.01, 0.02, 0.0]))
-    assert sorted(main.tolist()) == list(range(20))
+    main = er._mainCrack(x, np.array([0.01, 0.02, 0.0]))
+    assert np.flatnonzero(main).tolist() == list(range(20))
 
 
 # --- the erosion acts only while its engine is in O.engines ----------------------------------------

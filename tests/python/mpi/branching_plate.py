@@ -36,6 +36,10 @@ summary = {"ranks": s.ranks, "eroded": crack.erodedCount(), "dissipated": crack.
            "tips": [t.tolist() for t in crack.tips()], "initiation": crack.initiationTime(),
            "branching": crack.branchingTime(),
            "x": em.parallel.gather(mpm, s.positions()).tolist()[:5]}
+# The eroded points' positions as the crack diagnostics read them: only those travel.
+eroded = np.array([p for p, _, _ in crack.core.events()], dtype=np.int64)
+summary["positionsOf"] = bool(len(eroded) > 0 and np.array_equal(em.parallel.positionsOf(mpm, eroded),
+                                                                  em.parallel.gather(mpm, s.positions())[eroded]))
 if em.parallel.isRoot():
     with open(os.path.join(out, "summary.json"), "w") as f:
         json.dump(summary, f)
