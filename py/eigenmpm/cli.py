@@ -122,7 +122,8 @@ def _tag(O, key, default):
 
 
 # Exit status of a run stopped by a solver error; an interrupted run exits with 128 + the
-# signal's number (130 for SIGINT, 143 for SIGTERM), as a shell reports a process killed by it.
+# signal's number (130 for SIGINT, 143 for SIGTERM, 138 for SIGUSR1), as a shell reports a
+# process killed by it.
 SOLVER_ERROR_STATUS = 1
 _SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGUSR1)
 
