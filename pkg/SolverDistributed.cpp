@@ -23,28 +23,27 @@ template <int D, class K> void Solver<D, K>::distributePoints()
     }
     checkDistributable();  // (something may have been attached since distribute())
     const auto stripOf = [&](const Vec<D>& x) { return Scheduler<D>::template stripOf<K>(x, grid_); };
+    // A rank's range of strips must hold erosion's reach (its ghosts come from its neighbours only).
+    const int minStrips =
+        erosion_ ? std::max(1, static_cast<int>(std::ceil((erosion_->settings().kappa + 2 * grid_.h) /
+                                                          (Scheduler<D>::stripWidth * grid_.h))))
+                 : 1;
     if (!dist_->partitioned()) {
         std::vector<int> strips(points_.size());
         for (std::size_t p = 0; p < points_.size(); ++p) strips[p] = stripOf(points_.x[p]);
         const int numStrips = Scheduler<D>::template numStrips<K>(grid_);
         dist_->partition(points_, strips, numStrips, S, grid_.n[D - 1]);
-        if (erosion_) {
-            const double reach = erosion_->settings().kappa + 2 * grid_.h;
-            int thinnest = numStrips;
-            for (int r = 0; r < dist_->size(); ++r)
-                thinnest = std::min(thinnest, dist_->firstStrips()[r + 1] - dist_->firstStrips()[r]);
-            require(reach <= thinnest * Scheduler<D>::stripWidth * grid_.h, "number of ranks", dist_->size(),
-                    "one whose thinnest range of strips (" + std::to_string(thinnest) + " x " +
-                        std::to_string(Scheduler<D>::stripWidth) + " cells) holds kappa + 2 h (fewer ranks)");
-        }
+        int thinnest = numStrips;
+        for (int r = 0; r < dist_->size(); ++r)
+            thinnest = std::min(thinnest, dist_->firstStrips()[r + 1] - dist_->firstStrips()[r]);
+        require(thinnest >= minStrips, "number of ranks", dist_->size(),
+                "one whose thinnest range of strips (" + std::to_string(thinnest) + " x " +
+                    std::to_string(Scheduler<D>::stripWidth) + " cells) holds kappa + 2 h (fewer ranks)");
     } else {
         dist_->migrate(points_, stripOf);
-        if (rebalancePeriod_ > 0 && steps_ % rebalancePeriod_ == 0) {
-            // A range must hold erosion's reach, as at the first partition.
-            const double width = Scheduler<D>::stripWidth * grid_.h;
-            const int minStrips = erosion_ ? static_cast<int>(std::ceil((erosion_->settings().kappa + 2 * grid_.h) / width)) : 1;
-            if (dist_->rebalance(points_, stripOf, rebalanceTolerance_, std::max(minStrips, 1))) ++rebalances_;
-        }
+        if (rebalancePeriod_ > 0 && steps_ % rebalancePeriod_ == 0 &&
+            dist_->rebalance(points_, stripOf, rebalanceTolerance_, minStrips))
+            ++rebalances_;
     }
     // The traction points on this rank, by their position in each condition's list.
     tractionLocal_.assign(tractions_.size(), {});
