@@ -15,7 +15,8 @@ Run::
     mpiexec -n 2 yade -n -j1 -x examples/plate3d.py [...]        # on 2 processes
 
 with params h_mm, thickness_mm, ppc, kappaOverH, alpha, endTime_us, dt_us, vtkPeriod_us, Gc,
-traction_MPa. Writes (rank 0) DIR/summary.json (initiation_time_us, branching_time_us, as in
+traction_MPa, distributedSetup (default 1: under mpiexec each rank builds only its share of the
+points, doc/parallel.md "Memory"; 0: every rank builds the whole scene first). Writes (rank 0) DIR/summary.json (initiation_time_us, branching_time_us, as in
 crack_branching.py's summary; eroded_points, dissipated_energy_J, particles, steps, ranks,
 wall_time_s, particle_steps_per_s), DIR/damage.png (projected on the x-z plane) and the VTK series
 DIR/vtk/plate-*.pvtp or .vtp. Default: h = 1 mm, thickness 4 mm (128 000 points), 80 us.
@@ -34,14 +35,14 @@ from eigenmpm import plots
 from eigenmpm.cli import checkpointArgs, finish, runSteps, scriptArgs
 
 DEFAULTS = dict(h_mm=1.0, thickness_mm=4.0, ppc=2, kappaOverH=1.1, alpha=2.0, endTime_us=80.0, dt_us=0.04,
-                vtkPeriod_us=10.0, Gc=135.0, traction_MPa=12.0)
+                vtkPeriod_us=10.0, Gc=135.0, traction_MPa=12.0, distributedSetup=True)
 QUICK = dict(h_mm=2.0, endTime_us=40.0, dt_us=0.08)
 
 
 def build(o):
     h, T = o["h_mm"] * 1e-3, o["thickness_mm"] * 1e-3
     L, W = 0.1, 0.04
-    mpm = em.MpmEngine(dim=3, h=h, ppc=o["ppc"], label="plate",
+    mpm = em.MpmEngine(dim=3, h=h, ppc=o["ppc"], label="plate", distributedSetup=o["distributedSetup"],
                        domain=((-0.005, -2 * h, -0.005), (L + 0.005, T + 2 * h, W + 0.005)))
     glass = em.ElasticMaterial(E=72e9, nu=0.22, rho=2440.0)
     mpm.fill(pack.inAlignedBox((0, 0, 0), (L, T, W)), glass)
@@ -74,7 +75,7 @@ def main(argv):
         O.engines = [mpm, crack, vtk, em.Progress(endIter=steps, realPeriod=20)]
         if every:
             O.engines = [em.Checkpoint(directory=os.path.join(out, "checkpoints"), iterPeriod=every)] + list(O.engines)
-    n = len(mpm.referencePositions)  # (all points: a rank's solver holds its part)
+    n = mpm.numPoints()  # (all points: a rank's solver holds its part)
     start = time.time()
     end = runSteps(steps - O.iter)
     wall = time.time() - start

@@ -18,10 +18,7 @@ template <int D> Distribution<D>::Distribution(std::shared_ptr<Transport> t) : t
 template <int D>
 void Distribution<D>::partition(MaterialPoints<D>& P, const std::vector<int>& stripOf, int numStrips, int S, int nLast)
 {
-    if (numStrips < size_)
-        require(false, "number of ranks", size_,
-                "at most the number of strips of " + std::to_string(Scheduler<D>::stripWidth) +
-                    " cells along the last axis, " + std::to_string(numStrips) + " here (a smaller h, or fewer ranks)");
+    checkStrips(numStrips);
     std::vector<double> count(numStrips, 0.0);
     for (int s : stripOf) ++count[s];
     const std::vector<int> first = balancedRanges(count, size_);
@@ -39,6 +36,82 @@ void Distribution<D>::partition(MaterialPoints<D>& P, const std::vector<int>& st
         next.reserve(mine.size());
         for (int p : mine) next.push_back(a[p]);
         a.swap(next);
+    });
+}
+
+template <int D> void Distribution<D>::checkStrips(int numStrips) const
+{
+    if (numStrips < size_)
+        require(false, "number of ranks", size_,
+                "at most the number of strips of " + std::to_string(Scheduler<D>::stripWidth) +
+                    " cells along the last axis, " + std::to_string(numStrips) + " here (a smaller h, or fewer ranks)");
+}
+
+template <int D>
+void Distribution<D>::partitionHeld(MaterialPoints<D>& P, const std::vector<int>& stripOf, int numStrips, int S, int nLast)
+{
+    checkStrips(numStrips);
+    std::vector<double> count(numStrips, 0.0);
+    for (int s : stripOf) ++count[s];
+    t_->sum(count.data(), numStrips);  // (whole numbers: exact in any order)
+    const std::vector<int> first = balancedRanges(count, size_);
+    sendToOwners(P, stripOf, first);
+    setRanges(first, S, nLast);
+}
+
+template <int D>
+void Distribution<D>::sendToOwners(MaterialPoints<D>& P, const std::vector<int>& strip, const std::vector<int>& first)
+{
+    const int n = static_cast<int>(P.size());
+    std::vector<std::vector<int>> leaving(size_);
+    std::vector<int> keep;
+    keep.reserve(n);
+    for (int p = 0; p < n; ++p) {
+        const int to = strip[p] < 0 ? rank_
+                                    : static_cast<int>(std::upper_bound(first.begin(), first.end(), strip[p]) - first.begin()) - 1;
+        (to == rank_ ? keep : leaving[to]).push_back(p);
+    }
+    std::vector<std::vector<char>> out(size_);
+    for (int r = 0; r < size_; ++r) {
+        if (r == rank_) continue;
+        Bytes b;
+        b.put(static_cast<int>(leaving[r].size()));
+        P.forEachArray([&](const char* name, auto& a) {
+            if (!P.carries(name)) return;
+            for (int p : leaving[r]) b.put(a[p]);
+        });
+        out[r].swap(b.data);
+    }
+    std::vector<std::vector<char>> in = t_->allToAll(out);
+    std::vector<Bytes> from(size_);
+    std::vector<int> arriving(size_, 0);
+    std::size_t total = keep.size();
+    for (int r = 0; r < size_; ++r) {
+        if (r == rank_ || in[r].empty()) continue;
+        from[r].data.swap(in[r]);
+        arriving[r] = from[r].get<int>();
+        total += arriving[r];
+    }
+    P.forEachArray([&](const char* name, auto& a) {
+        if (!P.carries(name)) return;
+        using T = typename std::decay_t<decltype(a)>::value_type;
+        std::vector<T> merged;
+        merged.reserve(total);
+        for (int p : keep) merged.push_back(a[p]);
+        for (int r = 0; r < size_; ++r)
+            for (int k = 0; k < arriving[r]; ++k) merged.push_back(from[r].get<T>());
+        a.swap(merged);
+    });
+    // Sorted by globalId again, as one process numbers them.
+    std::vector<int> order(total);
+    for (std::size_t k = 0; k < total; ++k) order[k] = static_cast<int>(k);
+    const std::vector<std::int32_t>& id = P.globalId;
+    std::sort(order.begin(), order.end(), [&](int a, int b) { return id[a] < id[b]; });
+    P.forEachArray([&](const char* name, auto& a) {
+        if (!P.carries(name)) return;
+        std::decay_t<decltype(a)> sorted(a.size());
+        for (std::size_t k = 0; k < total; ++k) sorted[k] = a[order[k]];
+        a.swap(sorted);
     });
 }
 

@@ -121,6 +121,12 @@ public:
     /// number, S the kernel's support, nLast the nodes along the last axis. Throws
     /// ParameterError when there are fewer strips than ranks.
     void partition(MaterialPoints<D>& P, const std::vector<int>& stripOf, int numStrips, int S, int nLast);
+    /// The same choice when the points were distributed at set-up (Solver::distributeSetup):
+    /// every rank holds a share of the points, sorted by globalId, and stripOf[p] is its point
+    /// p's strip. The counts per strip are summed over the ranks, the ranges chosen as in
+    /// partition(), and every point sent to the rank whose range holds its strip. Every rank
+    /// calls it; the ranges and each rank's points are those partition() gives.
+    void partitionHeld(MaterialPoints<D>& P, const std::vector<int>& stripOf, int numStrips, int S, int nLast);
     /// The same ranges as another run's (a restart): first[r] is rank r's first strip.
     void setRanges(const std::vector<int>& first, int S, int nLast);
     const std::vector<int>& firstStrips() const { return first_; }
@@ -189,6 +195,12 @@ public:
     void restoreBox(Grid<D>& g, const int* lo, const int* hi);
 
 private:
+    /// Sends every point to the rank whose range in `first` holds its strip (strip[p]; a point
+    /// off the grid, strip < 0, stays), from any rank to any rank, and keeps the points sorted
+    /// by globalId. Every rank calls it.
+    void sendToOwners(MaterialPoints<D>& P, const std::vector<int>& strip, const std::vector<int>& first);
+    /// Throws ParameterError when there are fewer strips than ranks.
+    void checkStrips(int numStrips) const;
     std::vector<char> planes(const Grid<D>& g, int lo, int hi, const std::vector<NodeField>& fields) const;
     void setPlanes(const Grid<D>& g, int lo, const std::vector<char>& bytes, const std::vector<NodeField>& fields) const;
     void setRangesOf(int S, int nLast);
@@ -301,58 +313,7 @@ bool Distribution<D>::rebalance(MaterialPoints<D>& P, StripOf&& stripOf, double 
         if (next[r + 1] - next[r] < minStrips) return false;
     const double better = worst(next);
     if (next == first_ || better >= imbalance_) return false;
-    // Every point to the owner of its strip in the new ranges (a point off the grid stays: the
-    // step reports it).
-    std::vector<std::vector<int>> leaving(size_);
-    std::vector<int> keep;
-    keep.reserve(n);
-    for (int p = 0; p < n; ++p) {
-        const int to = strip[p] < 0 ? rank_
-                                    : static_cast<int>(std::upper_bound(next.begin(), next.end(), strip[p]) - next.begin()) - 1;
-        (to == rank_ ? keep : leaving[to]).push_back(p);
-    }
-    std::vector<std::vector<char>> out(size_);
-    for (int r = 0; r < size_; ++r) {
-        if (r == rank_) continue;
-        Bytes b;
-        b.put(static_cast<int>(leaving[r].size()));
-        P.forEachArray([&](const char* name, auto& a) {
-            if (!P.carries(name)) return;
-            for (int p : leaving[r]) b.put(a[p]);
-        });
-        out[r].swap(b.data);
-    }
-    std::vector<std::vector<char>> in = t_->allToAll(out);
-    std::vector<Bytes> from(size_);
-    std::vector<int> arriving(size_, 0);
-    std::size_t total = keep.size();
-    for (int r = 0; r < size_; ++r) {
-        if (r == rank_ || in[r].empty()) continue;
-        from[r].data.swap(in[r]);
-        arriving[r] = from[r].get<int>();
-        total += arriving[r];
-    }
-    P.forEachArray([&](const char* name, auto& a) {
-        if (!P.carries(name)) return;
-        using T = typename std::decay_t<decltype(a)>::value_type;
-        std::vector<T> merged;
-        merged.reserve(total);
-        for (int p : keep) merged.push_back(a[p]);
-        for (int r = 0; r < size_; ++r)
-            for (int k = 0; k < arriving[r]; ++k) merged.push_back(from[r].get<T>());
-        a.swap(merged);
-    });
-    // Sorted by globalId again, as one process numbers them.
-    std::vector<int> order(total);
-    for (std::size_t k = 0; k < total; ++k) order[k] = static_cast<int>(k);
-    const std::vector<std::int32_t>& id = P.globalId;
-    std::sort(order.begin(), order.end(), [&](int a, int b) { return id[a] < id[b]; });
-    P.forEachArray([&](const char* name, auto& a) {
-        if (!P.carries(name)) return;
-        std::decay_t<decltype(a)> sorted(a.size());
-        for (std::size_t k = 0; k < total; ++k) sorted[k] = a[order[k]];
-        a.swap(sorted);
-    });
+    sendToOwners(P, strip, next);
     first_ = next;
     setRangesOf(S_, nLast_);
     imbalance_ = better;

@@ -31,7 +31,11 @@ template <int D> struct MaterialPoints {
     /// The point's index in the single-process scene (Distribution.hpp): a rank's points stay
     /// sorted by it. Empty unless `distributed` is on.
     std::vector<std::int32_t> globalId;
-    bool affine = false, deformation = false, bodies = false, distributed = false;  ///< which optional arrays the points carry
+    /// Where each point was added (output measures displacement from it). Empty unless
+    /// `referenced` is on: in a run distributed at set-up (Solver::distributeSetup) no rank holds
+    /// every point, so the point carries it; otherwise the Python engine keeps it.
+    std::vector<Vec<D>> reference;
+    bool affine = false, deformation = false, bodies = false, distributed = false, referenced = false;  ///< which optional arrays the points carry
 
     std::size_t size() const { return x.size(); }
 
@@ -54,6 +58,7 @@ template <int D> struct MaterialPoints {
         f("deformationGradient", deformationGradient);
         f("body", body);
         f("globalId", globalId);
+        f("reference", reference);
     }
 
     /// Whether the points carry the array `name`: every non-optional one, an optional one when on.
@@ -63,6 +68,7 @@ template <int D> struct MaterialPoints {
         if (name == "deformationGradient") return deformation;
         if (name == "body") return bodies;
         if (name == "globalId") return distributed;
+        if (name == "reference") return referenced;
         return true;
     }
     /// The length an array must have: every point's, or 0 for an optional one that is off.
@@ -84,6 +90,7 @@ template <int D> struct MaterialPoints {
         if (affine) affineVelocity.push_back(Mat<D>::Zero());
         if (deformation) deformationGradient.push_back(Mat<D>::Identity());
         if (bodies) body.push_back(0);
+        if (referenced) reference.push_back(pos);
     }
 };
 

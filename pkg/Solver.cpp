@@ -867,8 +867,11 @@ int Solver<D, K>::addMaterial(double E, double nu, double rho, bool planeStress,
 template <int D, class K>
 int Solver<D, K>::addPoint(const Eigen::Vector3d& x, const Eigen::Vector3d& v, double volume, int material)
 {
-    const int id = static_cast<int>(points_.size());
-    if (dist_) require(false, "point", "added to a distributed run", "points added before distribute()");
+    const bool held = dist_ && heldSetup_ && !dist_->partitioned();
+    const int id = held ? nextId_ : static_cast<int>(points_.size());
+    if (dist_ && !held) require(false, "point", "added to a distributed run", "points added before distribute()");
+    if (held && id >= heldEnd_)
+        require(false, "point", "added beyond the share holdPoints() announced", "holdPoints() before each share");
     // The messages are built only on failure: this runs once per point of a scene.
     if (!(material >= 0 && material < static_cast<int>(materials_.size())))
         require(false, "material (id)", material,
@@ -890,6 +893,10 @@ int Solver<D, K>::addPoint(const Eigen::Vector3d& x, const Eigen::Vector3d& v, d
         }
     }
     points_.add(x.head<D>(), v.head<D>(), materials_[material].rho * volume, volume, material);
+    if (held) {
+        points_.globalId.push_back(id);
+        ++nextId_;
+    }
     return id;
 }
 
@@ -911,10 +918,15 @@ template <int D, class K> void Solver<D, K>::initialize()
     const double h = settings_.h;
     Vec<D> lo, hi;
     int pad = 0;
+    const bool held = dist_ && heldSetup_;  // (a run distributed at set-up: every rank is here)
+    double meanMass = 0;
+    if (held) initializeHeld(lo, hi, meanMass);
     if (haveDomain_) {
         lo = domainLo_;
         hi = domainHi_;
-    } else if (points_.size() > 0) {
+    } else if (held && globalPoints_ > 0) {
+        pad = settings_.padding;
+    } else if (!held && points_.size() > 0) {
         lo = hi = points_.x[0];
         for (const auto& x : points_.x) {
             lo = lo.cwiseMin(x);
@@ -939,18 +951,36 @@ template <int D, class K> void Solver<D, K>::initialize()
     require(total < (1L << 31) / 4, "number of grid nodes", total,
             "< 5.3e8 (give a smaller domain or a larger h)");
     grid_.resize(origin, h, n);
-    for (std::size_t p = 0; p < points_.size(); ++p)
+    // The first point outside, by its one-process id (in a run distributed at set-up the ranks
+    // agree on it, so that every rank stops with the same message).
+    double outside = -1;
+    Vec<D> where = Vec<D>::Zero();
+    for (std::size_t p = 0; p < points_.size() && outside < 0; ++p)
         for (int d = 0; d < D; ++d) {
             const int b = K::base((points_.x[p][d] - origin[d]) * grid_.invh);
-            if (b < 0 || b > n[d] - S)
-                throw SimulationError("EigenMPM: point " + std::to_string(p) + " at " +
-                                      str<D>(points_.x[p]) + " lies outside the domain or too close "
-                                      "to its edge (the shape function needs nodes around it); "
-                                      "enlarge the domain by at least " + std::to_string(S - 1) + " h");
+            if (b < 0 || b > n[d] - S) {
+                outside = held ? points_.globalId[p] : static_cast<double>(p);
+                where = points_.x[p];
+                break;
+            }
         }
-    double meanMass = 0;
-    for (double m : points_.mass) meanMass += m;
-    if (points_.size() > 0) meanMass /= points_.size();
+    if (held) {
+        double first = outside < 0 ? -static_cast<double>(INT_MAX) : -outside;  // the smallest id: max of -id
+        dist_->transport().max(&first, 1);
+        const bool mine = outside >= 0 && -first == outside;
+        outside = first == -static_cast<double>(INT_MAX) ? -1 : -first;
+        if (!mine) where.setZero();
+        dist_->transport().sum(where.data(), D);  // (only its rank adds it)
+    }
+    if (outside >= 0)
+        throw SimulationError("EigenMPM: point " + std::to_string(static_cast<long>(outside)) + " at " + str<D>(where) +
+                              " lies outside the domain or too close "
+                              "to its edge (the shape function needs nodes around it); "
+                              "enlarge the domain by at least " + std::to_string(S - 1) + " h");
+    if (!held) {
+        for (double m : points_.mass) meanMass += m;
+        if (points_.size() > 0) meanMass /= points_.size();
+    }
     massCutoffAbs_ = settings_.massCutoff * meanMass;
     initialized_ = true;
 }
@@ -964,8 +994,7 @@ int Solver<D, K>::addVelocityCondition(const std::vector<int>& nodes, const std:
         require(I >= 0 && I < grid_.numNodes(), "node index", I,
                 "0 <= node < " + std::to_string(grid_.numNodes()));
     for (int p : points)
-        require(p >= 0 && p < static_cast<int>(points_.size()), "point id", p,
-                "0 <= id < " + std::to_string(points_.size()));
+        require(p >= 0 && p < numGlobalPoints(), "point id", p, "0 <= id < " + std::to_string(numGlobalPoints()));
     require(mask != 0 && mask < (1u << D), "components (bit mask)", mask,
             "1 .. " + std::to_string((1u << D) - 1) + " (at least one direction)");
     require(velocity.head<D>().allFinite(), "velocity", "non-finite", "finite components");
@@ -1007,8 +1036,7 @@ int Solver<D, K>::addTraction(const std::vector<int>& points, const Eigen::Vecto
                               double rampTime, double layer)
 {
     for (int p : points)
-        require(p >= 0 && p < static_cast<int>(points_.size()), "point id", p,
-                "0 <= id < " + std::to_string(points_.size()));
+        require(p >= 0 && p < numGlobalPoints(), "point id", p, "0 <= id < " + std::to_string(numGlobalPoints()));
     require(traction.head<D>().allFinite(), "traction (Pa)", "non-finite", "finite components");
     require(std::isfinite(rampTime) && rampTime >= 0, "rampTime (s)", rampTime, "rampTime >= 0");
     require(std::isfinite(layer) && layer > 0, "layer (boundary layer thickness, m)", layer, "layer > 0");
@@ -1021,15 +1049,18 @@ template <int D, class K> double Solver<D, K>::criticalTimeStep() const
     double c = 0;
     for (const auto& m : materials_) c = std::max(c, m.waveSpeed());
     double vmax = maxSpeed_;
-    if (steps_ == 0)
+    if (steps_ == 0) {
         for (const auto& v : points_.v) vmax = std::max(vmax, v.norm());
+        if (dist_ && heldSetup_) dist_->transport().max(&vmax, 1);  // (every rank is here)
+    }
     if (c + vmax <= 0) return std::numeric_limits<double>::infinity();
     return settings_.h / (c + vmax);
 }
 
 template <int D, class K> int Solver<D, K>::addCrack(const std::vector<Eigen::Vector3d>& vertices)
 {
-    require(!dist_, "crack", "added to a distributed run", "cracks only on one process (doc/parallel.md)");
+    require(!dist_ || (heldSetup_ && !dist_->partitioned()), "crack", "added to a distributed run after its set-up",
+            "cracks before the first step (doc/parallel.md)");
     require(!points_.bodies, "crack", "in an engine with several bodies",
             "cracks only in an engine whose points are all in body 0 (a crack and bodies in one grid "
             "both use the phantom twins; use one engine per cracked body)");
@@ -1108,9 +1139,13 @@ template <int D, class K> void Solver<D, K>::setVelocityGradient(int p, const Ma
 {
     require(settings_.transfer == Transfer::apic, "velocity gradient", "given with the FLIP transfer",
             "the APIC transfer (only it carries an affine velocity)");
-    require(p >= 0 && p < static_cast<int>(points_.size()), "point id", p, "0 <= id < " + std::to_string(points_.size()));
+    require(p >= 0 && p < numGlobalPoints(), "point id", p, "0 <= id < " + std::to_string(numGlobalPoints()));
     require(C.allFinite(), "velocity gradient (1/s)", "non-finite", "finite components");
     initialize();
+    if (dist_) {  // (a distributed run's point p, if this rank holds it)
+        p = dist_->localIndex(points_, p);
+        if (p < 0) return;
+    }
     points_.affineVelocity[p] = C * momentDiagonalAt(p).asDiagonal();
 }
 

@@ -119,6 +119,20 @@ public:
     /// on nodes, or after the first step unless the solver is a rank's part loaded from its
     /// archive (distributedPart()), which needs the same rank of the same number of ranks.
     void distribute(std::shared_ptr<Transport> transport);
+    /// The same, with the points distributed from the start, so that no rank ever holds the
+    /// whole scene (doc/parallel.md, "Memory"): called before any point is added. Each rank
+    /// then adds only its share of the points, with the ids one process gives them
+    /// (holdPoints); the first step chooses the ranges as distribute() does and sends every
+    /// point to its rank. The points carry their reference positions (MaterialPoints::reference).
+    /// The grid, the mass cut-off and the critical time step are those of one process: every
+    /// rank must call initialize() (and what calls it) together. Results are bitwise those of
+    /// distribute().
+    void distributeSetup(std::shared_ptr<Transport> transport);
+    /// Set-up of a run distributed at set-up: the `count` points added next are this rank's
+    /// share of `total` new points of the whole scene, numbered from numGlobalPoints() + offset on.
+    void holdPoints(int offset, int count, int total);
+    /// The points of the whole scene: every rank's (a distributed run), or this solver's.
+    int numGlobalPoints() const { return dist_ ? globalPoints_ : static_cast<int>(points_.size()); }
     /// The distribution, or nullptr in a single-process run.
     const Distribution<D>* distribution() const { return dist_.get(); }
     /// Whether this solver is one rank's part of a distributed run, loaded from its archive and
@@ -200,6 +214,8 @@ private:
     // The stages of step(), in order (paper Section 4.1).
     void checkTimeStep(double dt);
     void distributePoints();
+    /// initialize()'s sums over the points of a run distributed at set-up, as one process forms them.
+    void initializeHeld(Vec<D>& lo, Vec<D>& hi, double& meanMass);
     /// Throws ParameterError for what a distributed run does not have yet (distribute()).
     void checkDistributable() const;
     void schedulePoints(int nThreads);
@@ -306,6 +322,9 @@ private:
     std::shared_ptr<Distribution<D>> dist_;
     GhostPoints<D> ghosts_;
     std::vector<int> twinRegular_;  ///< the regular node of each crack twin (distributed)
+    bool heldSetup_ = false;        ///< distributed at set-up (distributeSetup)
+    int globalPoints_ = 0;          ///< the whole scene's points (distributed)
+    int nextId_ = 0, heldEnd_ = 0;  ///< ids of the points holdPoints announced
     /// A rank's part loaded from an archive (loadState): its rank, the ranks and their strips.
     int resumeRank_ = 0, resumeRanks_ = 1;
     std::vector<int> resumeStrips_;

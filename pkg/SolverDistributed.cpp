@@ -3,7 +3,9 @@
 // step's hot passes in Solver.cpp are compiled as before (with them in Solver.cpp GCC generated a
 // stress pass of 3 % more instructions for the default 2D step).
 #include <algorithm>
+#include <climits>
 #include <cmath>
+#include <limits>
 #include <string>
 
 #include "CrackTransport.hpp"
@@ -32,7 +34,12 @@ template <int D, class K> void Solver<D, K>::distributePoints()
         std::vector<int> strips(points_.size());
         for (std::size_t p = 0; p < points_.size(); ++p) strips[p] = stripOf(points_.x[p]);
         const int numStrips = Scheduler<D>::template numStrips<K>(grid_);
-        dist_->partition(points_, strips, numStrips, S, grid_.n[D - 1]);
+        if (heldSetup_) {
+            dist_->partitionHeld(points_, strips, numStrips, S, grid_.n[D - 1]);
+        } else {
+            globalPoints_ = static_cast<int>(points_.size());
+            dist_->partition(points_, strips, numStrips, S, grid_.n[D - 1]);
+        }
         int thinnest = numStrips;
         for (int r = 0; r < dist_->size(); ++r)
             thinnest = std::min(thinnest, dist_->firstStrips()[r + 1] - dist_->firstStrips()[r]);
@@ -120,6 +127,98 @@ template <int D, class K> void Solver<D, K>::distribute(std::shared_ptr<Transpor
     }
     dist_ = d;
     dist_->setPhantomNodes(&phantom_);
+    if (points_.distributed) {  // (a rank's part: the scene's points are the largest id's + 1)
+        std::int32_t last = -1;
+        for (std::int32_t id : points_.globalId) last = std::max(last, id);
+        double count = last + 1.0;
+        dist_->transport().max(&count, 1);
+        globalPoints_ = static_cast<int>(count);
+    }
+}
+
+template <int D, class K> void Solver<D, K>::distributeSetup(std::shared_ptr<Transport> transport)
+{
+    require(!dist_ && steps_ == 0 && points_.size() == 0 && !initialized_, "distributeSetup",
+            "called after points were added, the grid was built or the run was distributed",
+            "once, on a new solver, before any point is added");
+    checkDistributable();
+    dist_ = std::make_shared<Distribution<D>>(std::move(transport));
+    dist_->setPhantomNodes(&phantom_);
+    heldSetup_ = true;
+    points_.distributed = true;
+    points_.referenced = true;
+}
+
+template <int D, class K> void Solver<D, K>::holdPoints(int offset, int count, int total)
+{
+    require(dist_ && heldSetup_ && !dist_->partitioned(), "holdPoints", "called without distributeSetup() or after the first step",
+            "set-up of a run distributed at set-up only");
+    require(offset >= 0 && count >= 0 && static_cast<long>(offset) + count <= total, "share of this rank's points",
+            "[" + std::to_string(offset) + ", " + std::to_string(static_cast<long>(offset) + count) + ")",
+            "0 <= offset <= offset + count <= total = " + std::to_string(total));
+    require(static_cast<long>(globalPoints_) + total < INT_MAX, "number of points", static_cast<long>(globalPoints_) + total,
+            "< 2^31 - 1");
+    nextId_ = globalPoints_ + offset;
+    heldEnd_ = nextId_ + count;
+    globalPoints_ += total;
+}
+
+template <int D, class K> void Solver<D, K>::initializeHeld(Vec<D>& lo, Vec<D>& hi, double& meanMass)
+{
+    Transport& t = dist_->transport();
+    // The bounding box: minima and maxima, exact in any order.
+    std::vector<double> box(2 * D, -std::numeric_limits<double>::infinity());
+    for (const auto& x : points_.x)
+        for (int d = 0; d < D; ++d) {
+            box[d] = std::max(box[d], -x[d]);
+            box[D + d] = std::max(box[D + d], x[d]);
+        }
+    t.max(box.data(), 2 * D);
+    for (int d = 0; d < D; ++d) {
+        lo[d] = -box[d];
+        hi[d] = box[D + d];
+    }
+    // The mean mass as one process sums it, point after point in id order: the ranks' runs of
+    // consecutive ids are visited in id order, each summed by its rank from the sum so far.
+    std::vector<std::int32_t> runs;  // (first id, length, first local index) of this rank's runs
+    for (std::size_t p = 0; p < points_.size(); ++p) {
+        const std::int32_t id = points_.globalId[p];
+        if (p > 0 && points_.globalId[p - 1] + 1 == id) {
+            ++runs[runs.size() - 2];
+            continue;
+        }
+        runs.insert(runs.end(), {id, 1, static_cast<std::int32_t>(p)});
+    }
+    Bytes mine;
+    for (std::size_t k = 0; k < runs.size(); k += 3) {
+        mine.put(runs[k]);
+        mine.put(runs[k + 1]);
+    }
+    std::vector<std::pair<std::int32_t, int>> all;  // (first id, rank)
+    const auto gathered = t.allGather(mine.data);
+    for (int r = 0; r < static_cast<int>(gathered.size()); ++r) {
+        Bytes b;
+        b.data = gathered[r];
+        while (!b.done()) {
+            all.emplace_back(b.get<std::int32_t>(), r);
+            b.get<std::int32_t>();
+        }
+    }
+    std::sort(all.begin(), all.end());
+    double sum = 0;
+    std::size_t next = 0;  // this rank's next run
+    for (const auto& run : all) {
+        double part = 0;
+        if (run.second == dist_->rank()) {
+            part = sum;
+            const int first = runs[next + 2], len = runs[next + 1];
+            for (int p = first; p < first + len; ++p) part += points_.mass[p];
+            next += 3;
+        }
+        t.sum(&part, 1);  // (the others add 0: exact)
+        sum = part;
+    }
+    meanMass = globalPoints_ > 0 ? sum / globalPoints_ : 0.0;
 }
 
 template <int D, class K> void Solver<D, K>::setRebalance(double tolerance, int period)
@@ -149,6 +248,9 @@ template <int D, class K> void Solver<D, K>::checkDistributable() const
     template void Solver<D, K>::addNodeForce(int, const Vec<D>&, std::int64_t, std::int64_t);     \
     template void Solver<D, K>::transportCracks(double);                                          \
     template void Solver<D, K>::distribute(std::shared_ptr<Transport>);                           \
+    template void Solver<D, K>::distributeSetup(std::shared_ptr<Transport>);                      \
+    template void Solver<D, K>::holdPoints(int, int, int);                                        \
+    template void Solver<D, K>::initializeHeld(Vec<D>&, Vec<D>&, double&);                         \
     template void Solver<D, K>::checkDistributable() const;                                       \
     template void Solver<D, K>::setRebalance(double, int);
 EMP_SOLVER_CONFIGURATIONS(EMP_INSTANTIATE)

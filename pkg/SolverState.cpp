@@ -10,9 +10,10 @@ namespace emp {
 
 namespace {
 const char* kFormat = "EigenMPM solver state";
-constexpr std::uint32_t kVersion = 5;  // 2: transfer, stress update, energy diagnostics; 3: contact work, crack-face contact;
+constexpr std::uint32_t kVersion = 6;  // 2: transfer, stress update, energy diagnostics; 3: contact work, crack-face contact;
                                        // 4: bodies in one grid (point body ids, their friction); 5: a rank's part
-                                       // of a distributed run (its flag, point ids, the ranks' strips)
+                                       // of a distributed run (its flag, point ids, the ranks' strips); 6: the
+                                       // points' reference positions of a run distributed at set-up
 }  // namespace
 
 StateHeader readStateHeader(std::istream& is)
@@ -37,6 +38,9 @@ template <int D, class K> void Solver<D, K>::saveState(std::ostream& os) const
         if (!std::dynamic_pointer_cast<VelocityCondition<D>>(conditions_[i]))
             throw SimulationError("EigenMPM: cannot save the state: grid condition " + std::to_string(i) +
                                   " is not a VelocityCondition and has no saved form");
+    if (dist_ && !dist_->partitioned())
+        throw SimulationError("EigenMPM: cannot save the state of a run distributed at set-up before its first step "
+                              "(no rank holds the scene then); save after a step, or rebuild the scene");
     ArchiveWriter w(os);
     w.string(kFormat);
     w.value(kVersion);
@@ -70,6 +74,7 @@ template <int D, class K> void Solver<D, K>::saveState(std::ostream& os) const
     w.value(points_.bodies);
     w.value(bodyContact_.friction);
     w.value(points_.distributed);
+    w.value(points_.referenced);
     w.value(grid_.origin);
     w.value(grid_.n);
 
@@ -175,6 +180,7 @@ template <int D, class K> std::shared_ptr<Solver<D, K>> Solver<D, K>::loadState(
         s->bodyContact_.friction = r.value<double>();
     }
     if (h.version >= 5) s->points_.distributed = r.value<bool>();
+    if (h.version >= 6) s->points_.referenced = r.value<bool>();
     const auto origin = r.value<Vec<D>>();
     const auto n = r.value<std::array<int, D>>();
     if (initialized) {
@@ -195,6 +201,7 @@ template <int D, class K> std::shared_ptr<Solver<D, K>> Solver<D, K>::loadState(
         if (h.version < 2 && s->points_.expectedLength(name) == 0) return;  // (optional arrays came with 2)
         if (h.version < 4 && std::string(name) == "body") return;          // (and the bodies with 4)
         if (h.version < 5 && std::string(name) == "globalId") return;      // (and a rank's part with 5)
+        if (h.version < 6 && std::string(name) == "reference") return;     // (and its reference positions with 6)
         r.expect(name);
         r.array(a);
         if (a.size() != s->points_.expectedLength(name))

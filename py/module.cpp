@@ -413,13 +413,17 @@ template <class Sv> struct Bind {
         s.gravity = toVec3(gravity, "gravity");
         return std::make_shared<Sv>(s);
     }
-    static int addPoints(Sv& s, np::ndarray pos, np::ndarray vel, np::ndarray vol, int material)
+    /// Appends the points; returns the id of the first. With total >= 0 (a run distributed at
+    /// set-up, Solver::holdPoints) they are this rank's share, from `offset` on, of `total`
+    /// points added to the whole scene.
+    static int addPoints(Sv& s, np::ndarray pos, np::ndarray vel, np::ndarray vol, int material, int offset, int total)
     {
         const long n = pos.shape(0);
         const auto x = readArray(pos, n, 3, "positions");
         const auto v = readArray(vel, n, 3, "velocities");
         const auto V = readArray(vol, n, 1, "volumes");
-        const int first = static_cast<int>(s.points().size());
+        if (total >= 0) s.holdPoints(offset, static_cast<int>(n), total);
+        const int first = total >= 0 ? s.numGlobalPoints() - total + offset : static_cast<int>(s.points().size());
         for (long i = 0; i < n; ++i)
             s.addPoint(Eigen::Vector3d(x[3 * i], x[3 * i + 1], x[3 * i + 2]),
                        Eigen::Vector3d(v[3 * i], v[3 * i + 1], v[3 * i + 2]), V[i], material);
@@ -685,7 +689,8 @@ template <class Sv> struct Bind {
             .add_property("gravity", &gravity, &setGravity)
             .def("addMaterial", &addMaterial, (bp::arg("E"), bp::arg("nu"), bp::arg("rho"), bp::arg("planeStress"), bp::arg("split")))
             .def("materialInfo", &materialInfo)
-            .def("addPoints", &addPoints, (bp::arg("positions"), bp::arg("velocities"), bp::arg("volumes"), bp::arg("material")))
+            .def("addPoints", &addPoints, (bp::arg("positions"), bp::arg("velocities"), bp::arg("volumes"), bp::arg("material"),
+                                           bp::arg("offset") = 0, bp::arg("total") = -1))
             .def("setDomain", &setDomain)
             .def("initialize", &Sv::initialize)
             .def("addVelocityCondition", &addVelocityCondition,
@@ -707,6 +712,13 @@ template <class Sv> struct Bind {
             .def("history", &history)
             .def("globalIds", &globalIds)
             .def("distribute", +[](Sv& s) { s.distribute(std::make_shared<emp::MpiTransport>()); })
+            .def("distributeSetup", +[](Sv& s) { s.distributeSetup(std::make_shared<emp::MpiTransport>()); })
+            .add_property("numGlobalPoints", &Sv::numGlobalPoints)
+            .def("referencePositions", +[](const Sv& s) {
+                require(s.points().referenced, "referencePositions", "asked of a solver that does not carry them",
+                        "a run distributed at set-up (MpmEngine(distributedSetup=True) under mpiexec)");
+                return vectors(s, [&](long p) { return s.points().reference[p]; });
+            })
             .add_property("rank", +[](const Sv& s) { return s.distribution() ? s.distribution()->rank() : 0; })
             .add_property("ranks", +[](const Sv& s) { return s.distribution() ? s.distribution()->size() : 1; })
             .add_property("distributedPart", &Sv::distributedPart)

@@ -16,9 +16,11 @@ def zPlane(predicate):
     return 0.5 * (lo[2] + hi[2]) if np.isfinite(lo[2]) and np.isfinite(hi[2]) else 0.0
 
 
-def latticePoints(predicate, h, ppc, dim):
+def latticePoints(predicate, h, ppc, dim, share=None):
     """Points of the lattice x = (i + 1/2) h/ppc (aligned with the grid nodes at multiples of h)
-    inside the predicate's bounding box for which ``predicate(x, 0)`` holds, x fastest."""
+    inside the predicate's bounding box for which ``predicate(x, 0)`` holds, x fastest. With
+    share = (k, m), only those among the k-th of m nearly equal contiguous parts of the lattice
+    (each part is built and tested alone: a run distributed at set-up)."""
     if not hasattr(predicate, "aabb"):
         raise TypeError(f"EigenMPM: {predicate!r} is not a yade.pack predicate (it has no aabb())")
     lo, hi = _aabb(predicate)
@@ -33,8 +35,11 @@ def latticePoints(predicate, h, ppc, dim):
         axes.append((np.arange(first, last + 1) + 0.5) * dx)
     if dim == 2:
         axes.append(np.array([zPlane(predicate)]))
-    grid = np.meshgrid(*axes, indexing="ij")
-    pts = np.stack([g.ravel(order="F") for g in grid], axis=1)
+    shape = tuple(len(a) for a in axes)
+    total = int(np.prod(shape))
+    k, m = share if share is not None else (0, 1)
+    index = np.unravel_index(np.arange(total * k // m, total * (k + 1) // m), shape, order="F")
+    pts = np.stack([a[i] for a, i in zip(axes, index)], axis=1)
     keep = np.fromiter((bool(predicate(tuple(p), 0.0)) for p in pts), dtype=bool, count=len(pts))
     out = pts[keep]
     if dim == 2:

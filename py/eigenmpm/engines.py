@@ -269,6 +269,11 @@ class MpmEngine(PyRunner):
               bounds="[1, inf)"),
         Param("rebalancePeriod", 100, "steps", "under mpiexec: how often the balance is checked (0: never)",
               kind="int", bounds="[0, inf)"),
+        Param("distributedSetup", False, "", "under mpiexec: every rank keeps only its share of the points "
+                                             "from fill()/addPoints() on, so that no rank holds the whole "
+                                             "scene (doc/parallel.md, 'Memory'); referencePositions is then "
+                                             "None (referenceOfPoints() gives this rank's); the results do "
+                                             "not change", fixed=True),
     )
 
     def __init__(self, **kw):
@@ -282,6 +287,12 @@ class MpmEngine(PyRunner):
                                                                transfer=self.transfer, stressUpdate=self.stressUpdate)
         if self.domain is not None:
             self.solver.setDomain(*self.domain)
+        # Where each point was added (m), by point id: output measures displacement from it. A
+        # run distributed at set-up keeps it with the points instead (referenceOfPoints()).
+        self.referencePositions = np.zeros((0, 3))
+        if self.distributedSetup and parallel.worldSize() > 1:
+            self.solver.distributeSetup()
+            self.referencePositions = None
         if self.crackContact:
             self.solver.setCrackContact(True, self.crackFriction)
         self.solver.setBodyFriction(self.bodyFriction)
@@ -293,8 +304,6 @@ class MpmEngine(PyRunner):
         self._materials = {}
         self._started = False
         self._lastIter = None
-        # Where each point was added (m), by point id: output measures displacement from it.
-        self.referencePositions = np.zeros((0, 3))
         self._cracksToCheck = []  # ids of cracks not yet checked against the material
 
     @property
@@ -342,7 +351,7 @@ class MpmEngine(PyRunner):
             self._materials[key] = (mat, self.solver.addMaterial(*args))
         return self._materials[key][1]
 
-    def addPoints(self, positions, material, volumes, velocities=None, body=0):
+    def addPoints(self, positions, material, volumes, velocities=None, body=0, _share=None):
         """Adds points at `positions` (n x 3, or n x 2 in 2D; m) with `volumes` (one value or n
         values, m^3; in 2D area x thickness) and `velocities` (one vector or n x 3, m/s), in body
         `body` (0-63: bodies touch and separate, doc/contact.md). Returns the ids of the new
@@ -379,14 +388,29 @@ class MpmEngine(PyRunner):
             raise ValueError(f"EigenMPM: volumes up to {float(vol.max())!r} m^3 are invalid with rho = {rho!r} "
                              f"kg/m3: the point mass overflows; allowed: volume < {sys.float_info.max / rho:.3g} "
                              f"m^3 ({owner})")
+        vol = np.broadcast_to(vol.reshape(-1), (n,))
+        vel = np.broadcast_to(vel, (n, 3))
+        if self.referencePositions is None:  # distributed at set-up: this rank's share only
+            if _share is not None:  # (fill: the positions are the share already)
+                return self._addShare(pos, vel, vol, mid, _share[0], _share[1], body)
+            a, b = _shareOf(n)
+            return self._addShare(pos[a:b], vel[a:b], vol[a:b], mid, a, n, body)
         pos = np.ascontiguousarray(pos)
-        vol = np.ascontiguousarray(np.broadcast_to(vol.reshape(-1), (n,)))
-        vel = np.ascontiguousarray(np.broadcast_to(vel, (n, 3)))
-        first = self.solver.addPoints(pos, vel, vol, mid)
+        first = self.solver.addPoints(pos, np.ascontiguousarray(vel), np.ascontiguousarray(vol), mid)
         if body:
             self.solver.setPointBodies(first, n, body)
         self.referencePositions = np.concatenate([self.referencePositions, pos])
         return np.arange(first, first + n)
+
+    def _addShare(self, pos, vel, vol, mid, offset, total, body):
+        """Adds this rank's share of `total` new points of a run distributed at set-up, the
+        first being number `offset` of them. Returns the ids of all `total` points."""
+        if body:
+            raise ValueError(f"EigenMPM: body = {body} is invalid with distributedSetup: a distributed run "
+                             "has one body (doc/parallel.md); allowed: 0 (MpmEngine.addPoints)")
+        first = self.solver.addPoints(np.ascontiguousarray(pos), np.ascontiguousarray(vel),
+                                      np.ascontiguousarray(vol), mid, offset, total) - offset
+        return np.arange(first, first + total)
 
     def fill(self, predicate, material, velocity=(0, 0, 0), body=0):
         """Fills a ``yade.pack`` predicate (or any callable ``pred(point, pad)``) with points on
@@ -407,16 +431,36 @@ class MpmEngine(PyRunner):
                              f"{f', thickness = {self.thickness!r}' if self.dim == 2 else ''}: the point volume "
                              f"(h / ppc)^{self.dim}{' x thickness' if self.dim == 2 else ''} = {vol!r} m^3; "
                              f"allowed: a volume that is finite and not below {sys.float_info.min:.3g} ({owner})")
-        pos = latticePoints(predicate, self.h, self.ppc, self.dim)
-        if len(pos) == 0:
+        if self.referencePositions is None:  # distributed at set-up: this rank's share of the lattice
+            pos, offset, total = _latticeShare(predicate, self.h, self.ppc, self.dim)
+        else:
+            pos = latticePoints(predicate, self.h, self.ppc, self.dim)
+            offset = total = len(pos)
+        if total == 0:
             raise ValueError(f"EigenMPM: the predicate {predicate!r} holds no lattice point at h = "
                              f"{self.h}, ppc = {self.ppc}; check its extent")
-        return self.addPoints(pos, material, vol, velocity, body)
+        return self.addPoints(pos, material, vol, velocity, body, _share=(offset, total))
 
     def pointsIn(self, predicate, pad=0.0):
-        """Ids of the points whose current position satisfies ``predicate(x, pad)``."""
+        """Ids of the points whose current position satisfies ``predicate(x, pad)``. Under
+        mpiexec, once the points are distributed, the ids of every rank's (every rank must call it)."""
         from .builders import select
-        return select(self.solver.positions(), predicate, pad, self.dim)
+        mine = select(self.solver.positions(), predicate, pad, self.dim)
+        if self.solver.ranks == 1:
+            return mine
+        return parallel.allIds(np.asarray(self.solver.globalIds())[mine])
+
+    def referenceOfPoints(self):
+        """Where each of this process's points (the rows of solver.positions()) was added, n x 3 (m)."""
+        s = self.solver
+        if self.referencePositions is None:
+            return np.asarray(s.referencePositions())
+        x0 = self.referencePositions
+        return x0[s.globalIds()] if s.ranks > 1 else x0
+
+    def numPoints(self):
+        """The points of the whole scene (under mpiexec: of every rank)."""
+        return int(self.solver.numGlobalPoints) if self.solver.ranks > 1 else len(self.solver.positions())
 
     def nodesIn(self, predicate, pad=None):
         """Indices of the grid nodes inside ``predicate``; pad defaults to -1e-6 h, so nodes on the
@@ -502,7 +546,10 @@ class MpmEngine(PyRunner):
         reach = 0.5 * self.h / self.ppc * (1 + 1e-9)
         for cid in self._cracksToCheck:
             v = np.array([list(p) for p in self.solver.crackVertices(cid)])[:, :self.dim]
-            if len(x) == 0 or not _nearCrack(x, v, reach).any():
+            near = len(x) > 0 and bool(_nearCrack(x, v, reach).any())
+            if self.solver.ranks > 1:  # (any rank's points)
+                near = parallel.anyRank(near)
+            if not near:
                 warnings.warn(f"EigenMPM: crack {cid} with vertices {v.tolist()} cuts no material: no point of "
                               f"MpmEngine {self.label!r} lies within {reach:.4g} m (half a point spacing) of "
                               "it, so it changes nothing; check its coordinates", UserWarning, stacklevel=2)
@@ -542,7 +589,7 @@ class MpmEngine(PyRunner):
         if not self._started:
             self._started = True
             self._checkCracks()
-            if parallel.worldSize() > 1 and self.solver.steps == 0:  # mpiexec -n N (doc/parallel.md)
+            if parallel.worldSize() > 1 and self.solver.steps == 0 and self.solver.ranks == 1:  # mpiexec -n N
                 self.solver.distribute()
         # O.iter going back behind this solver means the scene was reloaded without its EigenMPM
         # state (eigenmpm.state): stepping on would continue from a later state, silently wrong.
@@ -693,6 +740,24 @@ def callEvery(function, iterPeriod=1, virtPeriod=0.0, label=""):
     r = _Call(function, label)
     r.iterPeriod, r.virtPeriod = int(iterPeriod), float(virtPeriod)
     return r
+
+
+def _shareOf(n):
+    """This rank's share [a, b) of n new points of a run distributed at set-up: contiguous,
+    nearly equal (the first step sends every point to the rank of its strip)."""
+    r, size = parallel.rank(), parallel.worldSize()
+    return n * r // size, n * (r + 1) // size
+
+
+def _latticeShare(predicate, h, ppc, dim):
+    """fill()'s lattice points of this rank's share of the candidates (the lattice of the
+    predicate's box, in latticePoints' order), the number of points the ranks before it keep,
+    and the number all keep: each rank evaluates the predicate on its share only."""
+    from .builders import latticePoints
+    size = parallel.worldSize()
+    pos = latticePoints(predicate, h, ppc, dim, share=(parallel.rank(), size))
+    counts = parallel.allCounts(len(pos))
+    return pos, int(sum(counts[:parallel.rank()])), int(sum(counts))
 
 
 def _nearCrack(x, v, reach):

@@ -119,3 +119,29 @@ def agreeOnStop():
 def agreedStop():
     """The signal number on which the ranks agreed to stop (0: none since the last resetStop)."""
     return _stop["agreed"]
+
+
+def allIds(mine):
+    """The ids in `mine` (this rank's) of every rank, sorted; on one process, `mine`. Every rank
+    must call it."""
+    mine = np.asarray(mine, dtype=np.int64)
+    if worldSize() == 1:
+        return mine
+    from mpi4py import MPI
+    return np.sort(np.concatenate(MPI.COMM_WORLD.allgather(mine)))
+
+
+def allCounts(n):
+    """Every rank's `n`, in rank order ([n] on one process). Every rank must call it."""
+    if worldSize() == 1:
+        return [int(n)]
+    from mpi4py import MPI
+    return MPI.COMM_WORLD.allgather(int(n))
+
+
+def anyRank(flag):
+    """Whether `flag` holds on any rank. Every rank must call it."""
+    if worldSize() == 1:
+        return bool(flag)
+    from mpi4py import MPI
+    return bool(MPI.COMM_WORLD.allreduce(bool(flag), op=MPI.LOR))

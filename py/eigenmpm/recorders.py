@@ -91,9 +91,7 @@ class VTKRecorder(PyRunner):
         s = mpm.solver
         x = s.positions()
         n = len(x)
-        x0 = mpm.referencePositions
-        if s.ranks > 1:  # this rank's points, by their index in the whole scene
-            x0 = x0[s.globalIds()]
+        x0 = mpm.referenceOfPoints()
         if len(x0) != n:
             raise RuntimeError(f"EigenMPM: {n} points in the solver, {len(x0)} added through "
                                "MpmEngine.addPoints or fill; add points only through these")

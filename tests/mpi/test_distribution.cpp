@@ -321,6 +321,79 @@ TEST(Distribution, RefusesWhatItDoesNotHave)
     EXPECT_THROW(d.step(0.5 * d.criticalTimeStep(), 1), emp::ParameterError);
 }
 
+TEST(Distribution, PointsDistributedAtSetUpGiveTheOneProcessGridCutOffAndSteps)
+{
+    // Three batches of points with uneven volumes (so that the mean mass depends on the order of
+    // its sum) and speeds, and no domain: the grid follows the points' box. Each rank adds only
+    // its share of every batch (distributeSetup, holdPoints); no rank ever holds them all.
+    auto settings = emptest::typicalSettings(0.01);
+    settings.massCutoff = 0.3;  // (large: a node near the cut-off would show a different one)
+    settings.gravity = Eigen::Vector3d(0, -9.81, 0);
+    const auto batch = [](int b, int i) {
+        const double x = 0.003 + 0.005 * (i % 13), y = 0.003 + 0.005 * (i / 13) + 0.07 * b;
+        const double vol = 2.5e-5 * (1 + 0.37 * std::sin(1.7 * i + b)), vy = 3 * std::cos(0.3 * i + b);
+        return std::make_tuple(Eigen::Vector3d(x, y, 0), Eigen::Vector3d(0.5, vy, 0), vol);
+    };
+    const int sizes[3] = {13 * 14, 13 * 9 + 5, 13 * 12};
+    emp::Solver<2, emp::GimpKernel> one(settings), held(settings);
+    const int m1 = one.addMaterial(1e6, 0.3, 1000, false, emp::lawIndex("spectral"));
+    held.distributeSetup(transport());
+    const int m2 = held.addMaterial(1e6, 0.3, 1000, false, emp::lawIndex("spectral"));
+    const int rank = transport()->rank(), ranks = transport()->size();
+    std::size_t most = 0;
+    for (int b = 0; b < 3; ++b) {
+        const int n = sizes[b], lo = n * rank / ranks, hi = n * (rank + 1) / ranks;
+        for (int i = 0; i < n; ++i) {
+            const auto [x, v, vol] = batch(b, i);
+            one.addPoint(x, v, vol, m1);
+        }
+        held.holdPoints(lo, hi - lo, n);
+        for (int i = lo; i < hi; ++i) {
+            const auto [x, v, vol] = batch(b, i);
+            EXPECT_EQ(held.addPoint(x, v, vol, m2), held.numGlobalPoints() - n + i);
+        }
+        most = std::max(most, held.points().size());
+        EXPECT_THROW(held.addPoint(std::get<0>(batch(b, 0)), Eigen::Vector3d::Zero(), 1e-5, m2), emp::ParameterError);
+    }
+    EXPECT_EQ(held.numGlobalPoints(), sizes[0] + sizes[1] + sizes[2]);
+    if (ranks > 1) EXPECT_LT(most, one.points().size());
+    EXPECT_TRUE(sameBits(held.criticalTimeStep(), one.criticalTimeStep()));
+    one.initialize();
+    held.initialize();
+    EXPECT_TRUE(sameBits(held.grid().origin, one.grid().origin));
+    EXPECT_EQ(held.grid().n, one.grid().n);
+    EXPECT_TRUE(sameBits(held.massCutoffAbsolute(), one.massCutoffAbsolute()))
+        << held.massCutoffAbsolute() << " vs " << one.massCutoffAbsolute();
+    const double dt = 0.5 * one.criticalTimeStep();
+    for (int n = 0; n < 60; ++n) {
+        one.step(dt, 1);
+        held.step(dt, 1);
+    }
+    const auto& P = held.points();
+    const auto& R = one.points();
+    const auto added = [&](int q) {  // where point q was added (its reference position)
+        int b = 0;
+        for (; q >= sizes[b]; ++b) q -= sizes[b];
+        return Vec<2>(std::get<0>(batch(b, q)).head<2>());
+    };
+    int differing = 0;
+    for (std::size_t p = 0; p < P.size(); ++p) {
+        const int q = P.globalId[p];
+        differing += !(sameBits(P.x[p], R.x[q]) && sameBits(P.v[p], R.v[q]) && sameBits(P.stress[p], R.stress[q]) &&
+                       sameBits(P.reference[p], added(q)));
+    }
+    EXPECT_EQ(differing, 0);
+    double count = static_cast<double>(P.size());
+    transport()->sum(&count, 1);
+    EXPECT_EQ(count, static_cast<double>(R.size()));
+    // Distributed at set-up, the scene cannot be saved before its first step (no rank holds it).
+    emp::Solver<2, emp::GimpKernel> fresh(settings);
+    fresh.distributeSetup(transport());
+    std::ostringstream os;
+    EXPECT_THROW(fresh.saveState(os), emp::SimulationError);
+    EXPECT_THROW(one.distributeSetup(transport()), emp::ParameterError);
+}
+
 }  // namespace
 
 int main(int argc, char** argv)

@@ -3,8 +3,11 @@ parameters: h = 1 mm, 16 000 points, a phantom pre-crack, eigenerosion, traction
 `steps` steps, on one process or under mpiexec (tests/python/test_mpi.py): every rank writes its
 points by id to OUT/rank-R.npz and rank 0 the totals to OUT/summary.json.
 
-    [mpiexec -n N] yade -n -j1 -x tests/python/mpi/branching_plate.py OUT [steps]
+    [mpiexec -n N] yade -n -j1 -x tests/python/mpi/branching_plate.py OUT [steps] [held]
+
+`held`: the engine distributes its points at set-up (MpmEngine(distributedSetup=True)).
 """
+import functools
 import json
 import os
 import sys
@@ -20,17 +23,21 @@ import crack_branching  # noqa: E402
 
 out = sys.argv[1]
 steps = int(sys.argv[2]) if len(sys.argv) > 2 else 1000
+held = sys.argv[3:] == ["held"]
 os.makedirs(out, exist_ok=True)
 o = dict(crack_branching.DEFAULTS)
 o.update(crack_branching.QUICK)
+if held:  # (the example's build() with the option on)
+    em.MpmEngine = functools.partial(em.MpmEngine, distributedSetup=True)
 mpm, crack = crack_branching.build(o)
 O.engines = [mpm, crack]
 O.dt = o["dt_us"] * 1e-6
+setup = em.parallel.allCounts(len(mpm.solver.positions()))  # each rank's points before the first step
 O.run(steps, True)
 s = mpm.solver
 np.savez(os.path.join(out, f"rank-{em.parallel.rank()}.npz"), ids=s.globalIds(), x=s.positions(), v=s.velocities(),
          stress=s.stress(), damage=s.damage())
-summary = {"ranks": s.ranks, "eroded": crack.erodedCount(), "dissipated": crack.dissipatedEnergy(),
+summary = {"ranks": s.ranks, "points": mpm.numPoints(), "setup": setup, "held": mpm.referencePositions is None, "eroded": crack.erodedCount(), "dissipated": crack.dissipatedEnergy(),
            "kinetic": mpm.kineticEnergy(), "elastic": mpm.elasticEnergy(), "work": mpm.externalWork(),
            "reaction": [0.0, 0.0, 0.0], "front": crack.frontDistance(),
            "tips": [t.tolist() for t in crack.tips()], "initiation": crack.initiationTime(),

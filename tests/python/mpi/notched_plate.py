@@ -3,7 +3,9 @@ and under mpiexec (tests/python/test_mpi.py): every rank writes its points by id
 OUT/rank-R.npz and rank 0 the engine's totals to OUT/summary.json; a VTKRecorder writes
 OUT/vtk/plate-*.vtp (under mpiexec: a piece per rank and a .pvtp).
 
-    [mpiexec -n N] yade -n -x tests/python/mpi/notched_plate.py OUT [steps]
+    [mpiexec -n N] yade -n -x tests/python/mpi/notched_plate.py OUT [steps] [held]
+
+`held`: the engine distributes its points at set-up (MpmEngine(distributedSetup=True)).
 """
 import json
 import os
@@ -16,9 +18,11 @@ import eigenmpm as em
 
 out = sys.argv[1]
 steps = int(sys.argv[2]) if len(sys.argv) > 2 else 300
+held = sys.argv[3:] == ["held"]
 os.makedirs(out, exist_ok=True)
 h = 1e-3
-mpm = em.MpmEngine(dim=2, h=h, thickness=h, label="plate", domain=((-0.003, -0.003, 0), (0.027, 0.027, 0)))
+mpm = em.MpmEngine(dim=2, h=h, thickness=h, label="plate", domain=((-0.003, -0.003, 0), (0.027, 0.027, 0)),
+                   distributedSetup=held)
 glass = em.ElasticMaterial(E=72e9, nu=0.22, rho=2440, planeStress=True)
 mpm.fill(pack.inAlignedBox((0, 0, -1), (0.024, 0.024, 1)) - pack.inAlignedBox((-1, 0.0115, -1), (0.008, 0.0125, 1)), glass)
 mpm.traction(points=pack.inAlignedBox((-1, 0.023, -1), (1, 1, 1)), traction=(0, 12e6, 0))
@@ -28,12 +32,13 @@ crack = em.EigenErosion(engine=mpm, Gc=30.0, alpha=2.0, kappaOverH=1.1, origin=(
 vtk = em.VTKRecorder(engine=mpm, fileName=os.path.join(out, "vtk", "plate-"), iterPeriod=150)
 O.engines = [mpm, crack, vtk]
 O.dt = 0.5 * mpm.criticalTimeStep()
+setup = em.parallel.allCounts(len(mpm.solver.positions()))  # each rank's points before the first step
 O.run(steps, True)
 vtk.finalRecord()
 s = mpm.solver
 np.savez(os.path.join(out, f"rank-{em.parallel.rank()}.npz"), ids=s.globalIds(), x=s.positions(), v=s.velocities(),
          stress=s.stress(), damage=s.damage())
-summary = {"ranks": s.ranks, "eroded": crack.erodedCount(), "dissipated": crack.dissipatedEnergy(),
+summary = {"ranks": s.ranks, "points": mpm.numPoints(), "setup": setup, "held": mpm.referencePositions is None, "eroded": crack.erodedCount(), "dissipated": crack.dissipatedEnergy(),
            "kinetic": mpm.kineticEnergy(), "elastic": mpm.elasticEnergy(), "work": mpm.externalWork(),
            "reaction": list(s.reaction(0)), "front": crack.frontDistance(),
            "x": em.parallel.gather(mpm, s.positions()).tolist()[:5]}
