@@ -154,7 +154,7 @@ def main(argv):
                    tips_at_end=len(crack.history[-1][4]) if crack.history else 0,
                    parameters=o, quick=quick, **end.summary())
     x, damage = (em.parallel.gather(mpm, a) for a in (mpm.solver.positions(), mpm.solver.damage()))
-    plots.damageMap(mpm, os.path.join(out, "damage.png"))  # (every rank: it gathers the points)
+    plots.damageMap(mpm, os.path.join(out, "damage.png"))  # (every rank: it sums a raster over the ranks)
     t = np.array(plot.data["t"])
     keys = ("plate_EkStep", "plate_Ee", "erosion_Ef", "plate_Wext", "plate_balance")
     if em.parallel.isRoot():  # under mpiexec rank 0 writes the files (the figures save themselves there)

@@ -402,7 +402,7 @@ def main(argv):
     if bodies:
         summary.update(peak_load_raw_N=float(raw[:, 1].max()), hammer_min_force_N=float(raw[:, 1].min()),
                        load_window_us=1e6 * LOAD_WINDOW)
-    plots.damageMap(mpm, os.path.join(out, "damage.png"),  # (every rank: it gathers the points)
+    plots.damageMap(mpm, os.path.join(out, "damage.png"),  # (every rank: it sums a raster over the ranks)
                     title=f"John-Shah, gamma = {o['gamma']:g}, h = {o['h_mm']:g} mm, "
                           f"t = {mpm.solver.time * 1e6:.0f} us: " + (f"crack from the {summary['crack_origin']}"
                                                                   if summary["crack_origin"] else "no crack"))

@@ -416,7 +416,7 @@ def main(argv):
     if watch is not None:
         summary.update(projectileSummary(o, watch, s["initiation_time_us"]))
     summary.update(end.summary())
-    plots.damageMap(mpm, os.path.join(out, "damage.png"),  # (every rank: it gathers the points)
+    plots.damageMap(mpm, os.path.join(out, "damage.png"),  # (every rank: it sums a raster over the ranks)
                     title=f"Kalthoff-Winkler, h = {o['h_mm']:g} mm, t = {mpm.solver.time * 1e6:.1f} us")
     if not em.parallel.isRoot():  # under mpiexec rank 0 writes the outputs (doc/parallel.md)
         finish(end, out)

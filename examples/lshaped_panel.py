@@ -156,7 +156,7 @@ def main(argv):
                    stress_update=mpm.stressUpdate, parameters=o, quick=quick, **end.summary())
     summary.update({k: v for k, v in crack.summary().items() if k != "crack_tips_m"})
     x, damage = (em.parallel.gather(mpm, a) for a in (mpm.solver.positions(), mpm.solver.damage()))
-    plots.damageMap(mpm, os.path.join(out, "damage.png"))  # (every rank: it gathers the points)
+    plots.damageMap(mpm, os.path.join(out, "damage.png"))  # (every rank: it sums a raster over the ranks)
     if not em.parallel.isRoot():  # under mpiexec rank 0 writes the outputs (doc/parallel.md)
         finish(end, out)
         return summary

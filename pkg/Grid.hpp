@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "ElasticMaterial.hpp"
+#include "ZeroPages.hpp"
 
 namespace emp {
 
@@ -13,11 +14,14 @@ template <int D> struct Grid {
     std::array<int, D> n{};  ///< nodes per direction
     int stride[D] = {};      ///< index = sum_d i_d * stride[d]; x varies fastest
 
-    std::vector<double> mass;      ///< m_I (Eq 12)
-    std::vector<double> invMass;   ///< 1/m_I, or 0 below the small-mass cut-off
-    std::vector<Vec<D>> momentum;  ///< P_I (Eqs 25, 29)
-    std::vector<Vec<D>> velocity;  ///< v_I (Eq 26), then P_I^{n+1/2}/m_I for Eq 31
-    std::vector<Vec<D>> force;     ///< f_I (Eqs 13, 28), then the applied f_I for Eq 30
+    // The nodal arrays start as zeros that are not written (ZeroPages): a rank of a distributed
+    // run writes only its planes, and only those take memory.
+    template <class T> using Nodal = std::vector<T, ZeroPages<T>>;
+    Nodal<double> mass;      ///< m_I (Eq 12)
+    Nodal<double> invMass;   ///< 1/m_I, or 0 below the small-mass cut-off
+    Nodal<Vec<D>> momentum;  ///< P_I (Eqs 25, 29)
+    Nodal<Vec<D>> velocity;  ///< v_I (Eq 26), then P_I^{n+1/2}/m_I for Eq 31
+    Nodal<Vec<D>> force;     ///< f_I (Eqs 13, 28), then the applied f_I for Eq 30
     /// Node indices of the points near pre-existing cracks: the stencil of such a point reads
     /// its S^D node indices here (a twin in place of a marked node across the crack).
     std::vector<int> remap;
@@ -26,11 +30,18 @@ template <int D> struct Grid {
     int numNodes() const { return regular_; }
     /// Regular nodes plus phantom twins: the length of the nodal arrays.
     int totalNodes() const { return static_cast<int>(mass.size()); }
-    /// Sizes the nodal arrays for `twins` phantom nodes after the regular ones.
+    /// Sizes the nodal arrays for `twins` phantom nodes after the regular ones. The step calls it
+    /// before it clears the grid: when the arrays must grow beyond their capacity, they are
+    /// allocated anew as zeros, without copying (copying would write, and so back with memory,
+    /// every page of the whole grid).
     void setTwins(int twins)
     {
         const int total = regular_ + twins;
         if (totalNodes() == total) return;
+        if (static_cast<std::size_t>(total) > mass.capacity()) {
+            allocate(total);
+            return;
+        }
         mass.resize(total, 0.0);
         invMass.resize(total, 0.0);
         momentum.resize(total, Vec<D>::Zero());
@@ -51,11 +62,7 @@ template <int D> struct Grid {
             total *= n[d];
         }
         regular_ = total;
-        mass.assign(total, 0.0);
-        invMass.assign(total, 0.0);
-        momentum.assign(total, Vec<D>::Zero());
-        velocity.assign(total, Vec<D>::Zero());
-        force.assign(total, Vec<D>::Zero());
+        allocate(total);
     }
 
     /// Position of a regular node (a twin sits at the position of its node).
@@ -83,6 +90,15 @@ template <int D> struct Grid {
     }
 
 private:
+    /// Fresh nodal arrays of `total` zeros, not written.
+    void allocate(int total)
+    {
+        freshZeros(mass, total);
+        freshZeros(invMass, total);
+        freshZeros(momentum, total);
+        freshZeros(velocity, total);
+        freshZeros(force, total);
+    }
     int regular_ = 0;
 };
 

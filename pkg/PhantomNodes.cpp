@@ -202,14 +202,14 @@ template <int D> void PhantomNodes<D>::reset(int nn, int layers)
     if (numNodes_ != nn || mark_.size() != static_cast<std::size_t>(nn) ||
         twin_.size() != static_cast<std::size_t>(layers) * nn || layers_ != layers) {
         numNodes_ = nn;
-        mark_.assign(nn, 0);
-        twin_.assign(static_cast<std::size_t>(layers) * nn, -1);
+        freshZeros(mark_, nn);
+        freshZeros(twin_, static_cast<std::size_t>(layers) * nn);
         marked_.clear();
     }
     layers_ = layers;
     for (int I : marked_) {
         mark_[I] = 0;
-        for (int c = 0; c < layers; ++c) twin_[static_cast<std::size_t>(c) * nn + I] = -1;
+        for (int c = 0; c < layers; ++c) twin_[static_cast<std::size_t>(c) * nn + I] = 0;
     }
     marked_.clear();
     numTwins_ = 0;
@@ -227,7 +227,7 @@ int PhantomNodes<D>::updateBodies(const Grid<D>& g, const std::vector<std::uint6
         marked_.push_back(I);
         m &= m - 1;  // the lowest body keeps the node
         for (int b = 0; m; ++b, m >>= 1)
-            if (m & 1) twin_[static_cast<std::size_t>(b) * nn + I] = nn + numTwins_++;
+            if (m & 1) twin_[static_cast<std::size_t>(b) * nn + I] = 1 + nn + numTwins_++;
     }
     return numTwins_;
 }
@@ -266,7 +266,7 @@ template <int D> int PhantomNodes<D>::update(const Grid<D>& g, int rings)
         std::sort(nodes.begin(), nodes.end());
         nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
         for (long I : nodes) {
-            twin_[c * nn + I] = nn + numTwins_++;
+            twin_[c * nn + I] = 1 + nn + numTwins_++;
             if (!mark_[I]) {
                 mark_[I] = 1;
                 marked_.push_back(static_cast<int>(I));
@@ -280,7 +280,7 @@ template <int D> int PhantomNodes<D>::update(const Grid<D>& g, int rings)
 template <int D> int PhantomNodes<D>::map(const Vec<D>& x, int I, const Vec<D>& xI) const
 {
     for (std::size_t c = 0; c < cracks_.size(); ++c) {
-        const int t = twin_[c * numNodes_ + I];
+        const int t = twin_[c * numNodes_ + I] - 1;
         if (t >= 0 && crosses(static_cast<int>(c), x, xI)) return t;
     }
     return I;

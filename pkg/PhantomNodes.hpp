@@ -20,6 +20,7 @@
 
 #include "ElasticMaterial.hpp"
 #include "Grid.hpp"
+#include "ZeroPages.hpp"
 
 namespace emp {
 
@@ -54,7 +55,7 @@ public:
     int mapBody(int body, int I) const
     {
         if (mark_.empty() || !mark_[I]) return I;
-        const int t = twin_[static_cast<std::size_t>(body) * numNodes_ + I];
+        const int t = twin_[static_cast<std::size_t>(body) * numNodes_ + I] - 1;
         return t >= 0 ? t : I;
     }
 
@@ -67,13 +68,13 @@ public:
     {
         if (!mark_.empty() && mark_[I])
             for (int c = 0; c < layers_; ++c) {
-                const int t = twin_[static_cast<std::size_t>(c) * numNodes_ + I];
+                const int t = twin_[static_cast<std::size_t>(c) * numNodes_ + I] - 1;
                 if (t >= 0) f(t);
             }
     }
     int numTwins() const { return numTwins_; }
     /// The twin that crack c gives node I, or -1.
-    int twin(int c, int I) const { return mark_.empty() ? -1 : twin_[c * static_cast<std::size_t>(numNodes_) + I]; }
+    int twin(int c, int I) const { return mark_.empty() ? -1 : twin_[c * static_cast<std::size_t>(numNodes_) + I] - 1; }
 
     /// The point of crack c nearest to x and the crack's unit normal there (2D: left of the
     /// nearest segment's direction; 3D: the polygon's Newell normal): the positive side.
@@ -86,9 +87,11 @@ private:
     void markCells(int c, const Grid<D>& g, std::vector<long>& cells) const;
 
     std::vector<std::vector<Vec<D>>> cracks_;
-    std::vector<char> mark_;   ///< per regular node
-    std::vector<int> marked_;  ///< marked regular nodes, ascending
-    std::vector<int> twin_;    ///< twin_[c * numNodes + I], -1 if crack c gives I no twin
+    // Per regular node, zeros until written (ZeroPages): a rank of a distributed run writes
+    // only near the cracks, and only those pages take memory.
+    std::vector<char, ZeroPages<char>> mark_;
+    std::vector<int> marked_;                  ///< marked regular nodes, ascending
+    std::vector<int, ZeroPages<int>> twin_;    ///< twin_[c * numNodes + I]: 1 + the twin crack c gives I, or 0
     int numNodes_ = 0, numTwins_ = 0;
     int layers_ = 0;  ///< layers of twin_: the cracks, or the bodies (updateBodies)
     void reset(int numNodes, int layers);

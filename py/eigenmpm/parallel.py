@@ -145,3 +145,30 @@ def anyRank(flag):
         return bool(flag)
     from mpi4py import MPI
     return bool(MPI.COMM_WORLD.allreduce(bool(flag), op=MPI.LOR))
+
+
+def total(value):
+    """The sum of `value` (a number or a numpy array) over the ranks, on every rank; on one
+    process, `value`. Every rank must call it."""
+    if worldSize() == 1:
+        return value
+    from mpi4py import MPI
+    if np.isscalar(value):
+        return MPI.COMM_WORLD.allreduce(value, op=MPI.SUM)
+    out = np.empty_like(np.asarray(value))
+    MPI.COMM_WORLD.Allreduce(np.ascontiguousarray(value), out, op=MPI.SUM)
+    return out
+
+
+def bounds(x):
+    """Column-wise minimum and maximum of the rows of `x` (n x k) over every rank's rows. Every
+    rank must call it."""
+    x = np.asarray(x, dtype=float)
+    k = x.shape[1]
+    local = np.concatenate([-x.min(axis=0), x.max(axis=0)]) if len(x) else np.full(2 * k, -np.inf)
+    if worldSize() > 1:
+        from mpi4py import MPI
+        out = np.empty_like(local)
+        MPI.COMM_WORLD.Allreduce(local, out, op=MPI.MAX)
+        local = out
+    return -local[:k], local[k:]

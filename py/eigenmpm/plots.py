@@ -33,32 +33,56 @@ def _figure(path, figsize):
         plt.close(fig)
 
 
+def _damageRaster(x, intact, lo, hi, n):
+    """damageMap's raster of `n` points (every rank's; x, intact: this rank's, projected): about
+    one pixel per point spacing, 0 empty, 1 intact, 2 eroded (eroded wins in a pixel), rows along
+    the second axis. The pixel counts are summed over the ranks. Every rank must call it."""
+    span = np.maximum(hi - lo, 1e-30)
+    spacing = np.sqrt(span[0] * span[1] / n)
+    nx, ny = (int(min(2000, max(10, v / spacing))) for v in span[:2])
+    rng = [[lo[0], hi[0]], [lo[1], hi[1]]]
+    full = parallel.total(np.histogram2d(x[:, 0], x[:, 1], bins=(nx, ny), range=rng)[0])
+    broken = parallel.total(np.histogram2d(x[~intact, 0], x[~intact, 1], bins=(nx, ny), range=rng)[0])
+    return np.where(broken > 0, 2, np.where(full > 0, 1, 0)).T
+
+
+def damageRaster(mpm, plane="xy", scale=1e3):
+    """The raster damageMap draws for many points (see _damageRaster), of every rank's points."""
+    axes = ["xyz".index(c) for c in plane]
+    x = mpm.solver.positions()[:, axes] * scale
+    lo, hi = parallel.bounds(x)
+    return _damageRaster(x, mpm.solver.damage() > 0, lo, hi, mpm.numPoints())
+
+
 def damageMap(mpm, path, title=None, scale=1e3, unit="mm", plane="xy"):
     """The points of a 2D MpmEngine at their current positions, intact blue and eroded red (like
     the paper's Figures 8, 16, 20, 24), with the pre-existing cracks as black lines. In 3D the
     points (and crack polygons) are projected on `plane` ('xy', 'xz' or 'yz')."""
     axes = ["xyz".index(c) for c in plane]
-    x = parallel.gather(mpm, mpm.solver.positions())[:, axes] * scale  # (every rank's points)
-    d = parallel.gather(mpm, mpm.solver.damage())
-    lo, hi = x.min(axis=0), x.max(axis=0)
+    n = mpm.numPoints()
+    few = n <= 8000  # markers; beyond, tiny markers leave moire gaps: a raster
+    x = mpm.solver.positions()[:, axes] * scale  # this rank's points (few: every rank's)
+    intact = mpm.solver.damage() > 0
+    if few:
+        x = parallel.gather(mpm, x)
+        intact = parallel.gather(mpm, intact)
+    # Under mpiexec a raster is summed over the ranks: no rank gathers the points.
+    lo, hi = parallel.bounds(x)
+    eroded = int((~intact).sum())
+    if not few:
+        eroded = int(parallel.total(eroded))
     span = np.maximum(hi - lo, 1e-30)
     width = 7.0
+    if not few:
+        img = _damageRaster(x, intact, lo, hi, n)
     with _figure(path, (width, max(2.0, min(12.0, width * span[1] / span[0])))) as ax:
-        intact = d > 0
-        if len(x) <= 8000:  # beyond, tiny markers leave moire gaps
+        if few:
             size = max(0.3, 2.0e4 / max(len(x), 1))
             ax.scatter(x[intact, 0], x[intact, 1], s=size, c="#1f4e9c", marker="s", linewidths=0, label="intact")
             ax.scatter(x[~intact, 0], x[~intact, 1], s=3 * size, c="#d62728", marker="s", linewidths=0,
                        label="eroded")
         else:
-            # Many points: a raster of about one pixel per point spacing (eroded wins in a pixel).
             from matplotlib.colors import ListedColormap
-            spacing = np.sqrt(span[0] * span[1] / len(x))
-            nx, ny = (int(min(2000, max(10, v / spacing))) for v in span[:2])
-            rng = [[lo[0], hi[0]], [lo[1], hi[1]]]
-            full, _, _ = np.histogram2d(x[:, 0], x[:, 1], bins=(nx, ny), range=rng)
-            broken, _, _ = np.histogram2d(x[~intact, 0], x[~intact, 1], bins=(nx, ny), range=rng)
-            img = np.where(broken > 0, 2, np.where(full > 0, 1, 0)).T
             ax.imshow(img, origin="lower", extent=(lo[0], hi[0], lo[1], hi[1]), interpolation="nearest",
                       cmap=ListedColormap(["white", "#1f4e9c", "#d62728"]), vmin=0, vmax=2)
         for c in range(mpm.solver.numCracks):
@@ -69,7 +93,7 @@ def damageMap(mpm, path, title=None, scale=1e3, unit="mm", plane="xy"):
         ax.set_aspect("equal")
         ax.set_xlabel(f"{plane[0]} ({unit})")
         ax.set_ylabel(f"{plane[1]} ({unit})")
-        ax.set_title(title or f"damage at t = {mpm.solver.time * 1e6:.1f} us ({int((~intact).sum())} points eroded)")
+        ax.set_title(title or f"damage at t = {mpm.solver.time * 1e6:.1f} us ({eroded} points eroded)")
     return path
 
 

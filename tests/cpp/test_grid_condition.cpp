@@ -25,12 +25,12 @@ template <int D> struct Spy : emp::GridCondition<D> {
             if (g.mass[I] > 0)
                 velocityIsMomentumOverMass = velocityIsMomentumOverMass &&
                                              (g.velocity[I] - g.momentum[I] / g.mass[I]).norm() <= 1e-14 * g.velocity[I].norm();
-        momentumAtVelocity = g.momentum;
+        momentumAtVelocity.assign(g.momentum.begin(), g.momentum.end());
     }
     void afterForces(emp::GridState<D>& s) override
     {
         forceTimes.push_back(s.time);
-        momentumAtForces = s.grid.momentum;
+        momentumAtForces.assign(s.grid.momentum.begin(), s.grid.momentum.end());
         for (const auto& f : s.grid.force) forceSeen = forceSeen || f.norm() > 0;
     }
 };

@@ -134,7 +134,7 @@ template <int D> Vec<D> massMoment(const emp::MaterialPoints<D>& P)
     return m;
 }
 
-inline double sum(const std::vector<double>& a)
+template <class A> double sum(const std::vector<double, A>& a)
 {
     double s = 0;
     for (double x : a) s += x;

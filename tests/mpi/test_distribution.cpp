@@ -4,6 +4,8 @@
 // bitwise, and the diagnostics (sums over the ranks) to round-off.
 #include <gtest/gtest.h>
 #include <mpi.h>
+#include <sys/mman.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstring>
@@ -392,6 +394,46 @@ TEST(Distribution, PointsDistributedAtSetUpGiveTheOneProcessGridCutOffAndSteps)
     std::ostringstream os;
     EXPECT_THROW(fresh.saveState(os), emp::SimulationError);
     EXPECT_THROW(one.distributeSetup(transport()), emp::ParameterError);
+}
+
+/// Pages of the array that are in memory (mincore), and all its pages.
+template <class A> std::pair<long, long> residentPages(const A& a)
+{
+    const long page = sysconf(_SC_PAGESIZE);
+    const auto start = reinterpret_cast<std::uintptr_t>(a.data());
+    const std::size_t bytes = a.size() * sizeof(a[0]);
+    EXPECT_EQ(start % page, 0u) << "not from mmap";
+    std::vector<unsigned char> in((bytes + page - 1) / page);
+    EXPECT_EQ(mincore(reinterpret_cast<void*>(start), bytes, in.data()), 0);
+    long n = 0;
+    for (unsigned char c : in) n += c & 1;
+    return {n, static_cast<long>(in.size())};
+}
+
+TEST(Distribution, ARankGridTakesMemoryOnlyInItsPlanes)
+{
+    // A grid of 201 x 801 nodes (its mass array 1.3 MB: from mmap), full of points: each rank
+    // writes only its planes, and only those pages of its nodal arrays are in memory.
+    auto settings = emptest::typicalSettings(0.01, 1);
+    settings.gravity = Eigen::Vector3d(0, -9.81, 0);
+    emp::Solver<2, emp::GimpKernel> s(settings);
+    const int m = s.addMaterial(1e6, 0.3, 1000, false, emp::lawIndex("spectral"));
+    s.setDomain(Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(2.0, 8.0, 0));
+    emptest::addBlock<2, emp::GimpKernel>(s, {2, 2}, {198, 798}, m);
+    s.distribute(transport());
+    for (int n = 0; n < 2; ++n) s.step(0.5 * s.criticalTimeStep(), 1);
+    const auto& g = s.grid();
+    const long page = sysconf(_SC_PAGESIZE);
+    const auto* d = s.distribution();
+    const long window = static_cast<long>(d->planeHi() - d->planeLo()) * g.stride[1];  // nodes
+    for (const auto& [resident, all] : {residentPages(g.mass), residentPages(g.invMass)}) {
+        const long expected = (window * 8 + page - 1) / page + 2;  // (+ a page at each end)
+        EXPECT_LE(resident, expected) << "rank " << d->rank() << ": " << resident << " of " << all << " pages";
+        if (d->size() == 1) EXPECT_EQ(resident, all);
+        if (d->size() > 1) EXPECT_LT(resident, 0.8 * all);
+    }
+    const auto [resident, all] = residentPages(g.momentum);
+    EXPECT_LE(resident, (window * 16 + page - 1) / page + 2) << resident << " of " << all;
 }
 
 }  // namespace

@@ -82,6 +82,8 @@ def test_mpiexec_runs_the_script_bitwise_as_one_process(tmp_path_factory, tmp_pa
         assert summary.get(key) == one.get(key), key
     if script == "branching_plate":  # the eroded points' positions, sent alone, are the gathered ones
         assert summary["positionsOf"] and one["positionsOf"]
+        # damageMap's raster, summed over the ranks, is the one-process raster (with eroded pixels)
+        assert summary["raster"] == one["raster"] and one["raster"][2] > 0
     for key in ("kinetic", "elastic", "work"):
         assert summary[key] == pytest.approx(one[key], rel=1e-12)
     assert summary["reaction"] == pytest.approx(one["reaction"], rel=1e-12)

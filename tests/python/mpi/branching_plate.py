@@ -8,6 +8,7 @@ points by id to OUT/rank-R.npz and rank 0 the totals to OUT/summary.json.
 `held`: the engine distributes its points at set-up (MpmEngine(distributedSetup=True)).
 """
 import functools
+import hashlib
 import json
 import os
 import sys
@@ -16,6 +17,7 @@ import numpy as np
 from yade import O
 
 import eigenmpm as em
+from eigenmpm import plots
 
 # (the package's .py files in the build tree link to the source tree: its examples are beside)
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.realpath(em.__file__)), "..", "..", "examples"))
@@ -47,6 +49,9 @@ summary = {"ranks": s.ranks, "points": mpm.numPoints(), "setup": setup, "held": 
 eroded = np.array([p for p, _, _ in crack.core.events()], dtype=np.int64)
 summary["positionsOf"] = bool(len(eroded) > 0 and np.array_equal(em.parallel.positionsOf(mpm, eroded),
                                                                   em.parallel.gather(mpm, s.positions())[eroded]))
+# damageMap's raster (16 000 points: summed over the ranks, no gather)
+raster = plots.damageRaster(mpm)
+summary["raster"] = [int((raster == k).sum()) for k in range(3)] + [hashlib.sha1(raster.tobytes()).hexdigest()]
 if em.parallel.isRoot():
     with open(os.path.join(out, "summary.json"), "w") as f:
         json.dump(summary, f)
