@@ -47,6 +47,37 @@ def latticePoints(predicate, h, ppc, dim, share=None):
     return out
 
 
+def nodeBox(solver, h, predicate, pad, dim):
+    """The nodes of the solver's grid (spacing h) that can lie in a yade.pack predicate's bounding
+    box (grown by pad and a node each way): their indices, ascending, and their positions (as
+    Solver::nodePosition gives them), or None for a predicate without bounds. nodesIn tests only
+    these, not every node of the grid (a large grid's positions need not exist at once)."""
+    if not hasattr(predicate, "aabb"):
+        return None
+    lo, hi = _aabb(predicate)
+    shape, origin = solver.gridShape(), solver.gridOrigin()
+    tol = abs(pad) + 1e-12
+    axes, ranges = [], []
+    for d in range(dim):
+        first, last = 0, shape[d] - 1
+        if np.isfinite(lo[d]):
+            first = max(first, int(math.floor((lo[d] - tol - origin[d]) / h)) - 1)
+        if np.isfinite(hi[d]):
+            last = min(last, int(math.ceil((hi[d] + tol - origin[d]) / h)) + 1)
+        if last < first:
+            return np.zeros(0, dtype=int), np.zeros((0, 3))
+        ranges.append(np.arange(first, last + 1))
+        axes.append(origin[d] + ranges[-1] * h)  # (origin + i h, as the core computes it)
+    grids = np.meshgrid(*axes, indexing="ij")
+    x = np.zeros((grids[0].size, 3))
+    for d in range(dim):
+        x[:, d] = grids[d].ravel(order="F")
+    stride = np.cumprod([1] + list(shape[:dim - 1]))
+    idx = np.meshgrid(*ranges, indexing="ij")
+    index = sum(stride[d] * idx[d].ravel(order="F") for d in range(dim))
+    return index, x
+
+
 def select(positions, predicate, pad, dim):
     """Indices of the rows of `positions` (n x 3) inside the predicate (yade.pack predicate
     evaluated as predicate(x, pad), or a callable of the point alone)."""

@@ -465,9 +465,13 @@ class MpmEngine(PyRunner):
     def nodesIn(self, predicate, pad=None):
         """Indices of the grid nodes inside ``predicate``; pad defaults to -1e-6 h, so nodes on the
         region's faces count as inside."""
-        from .builders import select
+        from .builders import nodeBox, select
         pad = -1e-6 * self.h if pad is None else pad
-        return select(self.solver.nodePositions(), predicate, pad, self.dim)
+        box = nodeBox(self.solver, self.h, predicate, pad, self.dim)
+        if box is None:  # (no bounds to narrow the search)
+            return select(self.solver.nodePositions(), predicate, pad, self.dim)
+        index, x = box
+        return index[select(x, predicate, pad, self.dim)]
 
     # --- boundary conditions --------------------------------------------------------------
     @takes(_REGION, _POINTS, _COMPONENTS,

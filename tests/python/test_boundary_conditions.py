@@ -169,3 +169,24 @@ def test_selection_errors():
         mpm.fix(region=pack.inAlignedBox((-1, -1, -1), (0, 1, 1)), components="z")
     with pytest.raises(ValueError, match="rampTime"):
         mpm.velocityBC(region=pack.inAlignedBox((-1, -1, -1), (0, 1, 1)), velocity=(1, 0, 0), rampTime=-1)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_nodes_in_a_region_are_those_of_every_node_position(dim):
+    """nodesIn tests only the nodes of the region's box (builders.nodeBox), not the whole grid:
+    the same nodes as a test of every node's position, for boxes, spheres, differences, regions
+    off the grid or unbounded on a side, and pads."""
+    from eigenmpm.builders import select
+    mpm = em.MpmEngine(dim=dim, h=0.01, domain=((-0.03, -0.02, -0.01), (0.31, 0.2, 0.05)))
+    regions = [pack.inAlignedBox((-1, -1, -1), (0, 1, 1)), pack.inAlignedBox((0.1, 0.05, 0), (0.2, 0.1, 0.02)),
+               pack.inSphere((0.15, 0.1, 0.02), 0.05),
+               pack.inAlignedBox((0.1, 0.05, -1), (0.2, 0.1, 1)) - pack.inSphere((0.15, 0.07, 0), 0.02),
+               pack.inAlignedBox((5, 5, 5), (6, 6, 6)), pack.inHalfSpace((0, 0.1, 0), (0, 1, 0))]
+    every = mpm.solver.nodePositions()
+    found = 0
+    for region in regions:
+        for pad in (None, 0.0, 0.005):
+            expected = select(every, region, -1e-6 * mpm.h if pad is None else pad, dim)
+            assert np.array_equal(mpm.nodesIn(region, pad), expected), (region, pad)
+            found += len(expected)
+    assert found > 1000
