@@ -367,10 +367,22 @@ TEST(Distribution, PointsDistributedAtSetUpGiveTheOneProcessGridCutOffAndSteps)
     EXPECT_TRUE(sameBits(held.massCutoffAbsolute(), one.massCutoffAbsolute()))
         << held.massCutoffAbsolute() << " vs " << one.massCutoffAbsolute();
     const double dt = 0.5 * one.criticalTimeStep();
+    std::stringstream archive;  // this rank's part after 30 steps, with the reference positions
     for (int n = 0; n < 60; ++n) {
+        if (n == 30) held.saveState(archive);
         one.step(dt, 1);
         held.step(dt, 1);
     }
+    auto resumed = emp::Solver<2, emp::GimpKernel>::loadState(archive);
+    resumed->distribute(transport());
+    EXPECT_EQ(resumed->numGlobalPoints(), held.numGlobalPoints());
+    for (int n = 30; n < 60; ++n) resumed->step(dt, 1);
+    ASSERT_EQ(resumed->points().size(), held.points().size());
+    for (std::size_t p = 0; p < held.points().size(); ++p)
+        EXPECT_TRUE(sameBits(resumed->points().x[p], held.points().x[p]) &&
+                    sameBits(resumed->points().reference[p], held.points().reference[p]) &&
+                    resumed->points().globalId[p] == held.points().globalId[p])
+            << "point " << held.points().globalId[p];
     const auto& P = held.points();
     const auto& R = one.points();
     const auto added = [&](int q) {  // where point q was added (its reference position)
