@@ -435,7 +435,7 @@ class MpmEngine(PyRunner):
             pos, offset, total = _latticeShare(predicate, self.h, self.ppc, self.dim)
         else:
             pos = latticePoints(predicate, self.h, self.ppc, self.dim)
-            offset = total = len(pos)
+            offset, total = 0, len(pos)
         if total == 0:
             raise ValueError(f"EigenMPM: the predicate {predicate!r} holds no lattice point at h = "
                              f"{self.h}, ppc = {self.ppc}; check its extent")
