@@ -33,12 +33,13 @@ def _figure(path, figsize):
         plt.close(fig)
 
 
-def _damageRaster(x, intact, lo, hi, n):
-    """damageMap's raster of `n` points (every rank's; x, intact: this rank's, projected): about
-    one pixel per point spacing, 0 empty, 1 intact, 2 eroded (eroded wins in a pixel), rows along
+def _damageRaster(x, intact, lo, hi, n, dx):
+    """damageMap's raster of `n` points (every rank's; x, intact: this rank's, projected) with
+    lattice spacing dx: about one pixel per point spacing, and never below dx (in 3D several
+    layers project on one pixel), 0 empty, 1 intact, 2 eroded (eroded wins in a pixel), rows along
     the second axis. The pixel counts are summed over the ranks. Every rank must call it."""
     span = np.maximum(hi - lo, 1e-30)
-    spacing = np.sqrt(span[0] * span[1] / n)
+    spacing = max(np.sqrt(span[0] * span[1] / n), dx)
     nx, ny = (int(min(2000, max(10, v / spacing))) for v in span[:2])
     rng = [[lo[0], hi[0]], [lo[1], hi[1]]]
     full = parallel.total(np.histogram2d(x[:, 0], x[:, 1], bins=(nx, ny), range=rng)[0])
@@ -51,7 +52,7 @@ def damageRaster(mpm, plane="xy", scale=1e3):
     axes = ["xyz".index(c) for c in plane]
     x = mpm.solver.positions()[:, axes] * scale
     lo, hi = parallel.bounds(x)
-    return _damageRaster(x, mpm.solver.damage() > 0, lo, hi, mpm.numPoints())
+    return _damageRaster(x, mpm.solver.damage() > 0, lo, hi, mpm.numPoints(), mpm.h / mpm.ppc * scale)
 
 
 def damageMap(mpm, path, title=None, scale=1e3, unit="mm", plane="xy"):
@@ -74,7 +75,7 @@ def damageMap(mpm, path, title=None, scale=1e3, unit="mm", plane="xy"):
     span = np.maximum(hi - lo, 1e-30)
     width = 7.0
     if not few:
-        img = _damageRaster(x, intact, lo, hi, n)
+        img = _damageRaster(x, intact, lo, hi, n, mpm.h / mpm.ppc * scale)
     with _figure(path, (width, max(2.0, min(12.0, width * span[1] / span[0])))) as ax:
         if few:
             size = max(0.3, 2.0e4 / max(len(x), 1))
