@@ -39,7 +39,7 @@ template <int D> struct Grid {
         const int total = regular_ + twins;
         if (totalNodes() == total) return;
         if (static_cast<std::size_t>(total) > mass.capacity()) {
-            allocate(total);
+            allocate(total, regular_ + 2 * twins);  // (room to grow: a growing crack adds twins step by step)
             return;
         }
         mass.resize(total, 0.0);
@@ -90,14 +90,14 @@ template <int D> struct Grid {
     }
 
 private:
-    /// Fresh nodal arrays of `total` zeros, not written.
-    void allocate(int total)
+    /// Fresh nodal arrays of `total` zeros (room for `capacity`), not written.
+    void allocate(int total, int capacity = 0)
     {
-        freshZeros(mass, total);
-        freshZeros(invMass, total);
-        freshZeros(momentum, total);
-        freshZeros(velocity, total);
-        freshZeros(force, total);
+        freshZeros(mass, total, capacity);
+        freshZeros(invMass, total, capacity);
+        freshZeros(momentum, total, capacity);
+        freshZeros(velocity, total, capacity);
+        freshZeros(force, total, capacity);
     }
     int regular_ = 0;
 };

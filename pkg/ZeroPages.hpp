@@ -53,10 +53,12 @@ template <class T> struct ZeroPages {
     friend bool operator!=(const ZeroPages&, const ZeroPages&) { return false; }
 };
 
-/// Replaces `a` by n elements of zero bytes on fresh memory, without writing them.
-template <class T> void freshZeros(std::vector<T, ZeroPages<T>>& a, std::size_t n)
+/// Replaces `a` by n elements of zero bytes on fresh memory of `capacity` (at least n) elements,
+/// without writing them.
+template <class T> void freshZeros(std::vector<T, ZeroPages<T>>& a, std::size_t n, std::size_t capacity = 0)
 {
     std::vector<T, ZeroPages<T>>().swap(a);
+    a.reserve(capacity > n ? capacity : n);
     a.resize(n);
 }
 
