@@ -9,6 +9,9 @@ mid-height z = 20 mm. The points are divided between ranks in slabs along z, so 
 tall as it is thick in that direction's many strips. The 2D plate runs plane stress; this one
 is the 3D continuum with free faces y = 0 and y = thickness.
 
+The crack's tips, front distance and tip speed are measured in the x-z plane
+(`EigenErosion(throughAxis="y")`): one front through the thickness is one tip, as in the 2D plate.
+
 Run::
 
     yade -n -x examples/plate3d.py [--quick] [--out DIR] [param=value ...]
@@ -52,7 +55,8 @@ def build(o):
     mpm.traction(points=pack.inAlignedBox((-1, -1, W - h), (1, 1, 1)), traction=(0, 0, t))
     mpm.traction(points=pack.inAlignedBox((-1, -1, -1), (1, 1, h)), traction=(0, 0, -t))
     crack = em.EigenErosion(engine=mpm, Gc=o["Gc"], alpha=o["alpha"], kappaOverH=o["kappaOverH"],
-                            origin=(0.5 * L, 0.5 * T, zc), iterPeriod=max(1, int(round(0.1 / o["dt_us"]))))
+                            origin=(0.5 * L, 0.5 * T, zc), throughAxis="y",
+                            iterPeriod=max(1, int(round(0.1 / o["dt_us"]))))
     return mpm, crack
 
 

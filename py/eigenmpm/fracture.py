@@ -103,6 +103,11 @@ class EigenErosion(PyRunner):
               bounds="(0, inf)", fixed=True),
         Param("origin", None, "m", "crack origin for tip tracking (e.g. the pre-crack tip); "
                                    "default: the first eroded point", kind="vector", fixed=True),
+        Param("throughAxis", None, "", "3D only: the axis along which crack fronts run through a plate's "
+                                       "thickness; tips, the front distance and the tip speed are then "
+                                       "measured in the plane normal to it (the eroded points projected on it), "
+                                       "so that one front through the thickness is one tip; default: distances "
+                                       "in 3D", kind="str", choices=("x", "y", "z"), fixed=True),
         Param("tipWindow", None, "s", "erosions within this time before a record can be tips, and "
                                       "the window of the tip speed; default 50 O.dt", kind="float",
               bounds="(0, inf)"),
@@ -167,6 +172,10 @@ class EigenErosion(PyRunner):
             return
         if self.origin is not None:
             _planarOrigin(self.origin, mpm.dim, self.label)
+        if self.throughAxis is not None and mpm.dim == 2:
+            raise ValueError(f"EigenMPM: throughAxis = {self.throughAxis!r} is invalid for the 2D MpmEngine "
+                             f"{mpm.label!r}: a 2D crack's distances are already in its plane; allowed: None "
+                             f"in 2D, 'x', 'y' or 'z' in 3D (EigenErosion {self.label!r})")
         kappa = self.kappa if self.kappa is not None else self.kappaOverH * mpm.h
         low, high = kappaRange(mpm.h, mpm.dim)
         spacing = mpm.h / mpm.ppc
@@ -207,7 +216,9 @@ class EigenErosion(PyRunner):
         crack origin: no eroded point within R = 6 kappa of it lies farther from the origin.
         Tips closer than R to a farther tip are merged into it. A straight crack has one tip;
         after branching each branch has its own; erosion behind the front (the band widening)
-        is never a tip. Only the crack grown from the origin counts (see _mainCrack)."""
+        is never a tip. Only the crack grown from the origin counts (see _mainCrack). With
+        throughAxis (a 3D plate), the points are projected on the plane normal to that axis first,
+        so that a front through the thickness is one tip (its component along the axis is 0)."""
         mpm = mpm or self._mpm
         events = self.core.events() if self.core else []
         if not events:
@@ -235,17 +246,27 @@ class EigenErosion(PyRunner):
                 tips.append(p.copy())
         return tips
 
-    @staticmethod
-    def _erodedPositions(mpm, events):
-        """Where the eroded points are now, in the order of the events. Under mpiexec only these
-        points' positions travel between the ranks (parallel.positionsOf), not every point's."""
-        return parallel.positionsOf(mpm, np.array([p for p, _, _ in events], dtype=np.int64))
+    def _erodedPositions(self, mpm, events):
+        """Where the eroded points are now, in the order of the events; with throughAxis, projected
+        on the plane normal to it. Under mpiexec only these points' positions travel between the
+        ranks (parallel.positionsOf), not every point's."""
+        x = parallel.positionsOf(mpm, np.array([p for p, _, _ in events], dtype=np.int64))
+        return self._inPlane(x)
+
+    def _inPlane(self, x):
+        """x (one row per point) projected on the plane normal to throughAxis (unchanged without)."""
+        if self.throughAxis is None:
+            return x
+        x = np.array(x, dtype=float)
+        x[..., "xyz".index(self.throughAxis)] = 0.0
+        return x
 
     def _originPoint(self, x):
-        """The crack origin: given, or where the first eroded point (x[0]) was when first asked."""
+        """The crack origin (projected as the points are): given, or where the first eroded point
+        (x[0]) was when first asked."""
         if self._origin is None:
             self._origin = x[0].copy()
-        return self._origin
+        return self._inPlane(self._origin)
 
     def frontDistance(self, mpm=None):
         """Largest distance from the crack origin to an eroded point, m (0 before cracking)."""

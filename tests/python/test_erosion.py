@@ -291,3 +291,61 @@ def test_alpha_griffith_waits_for_the_material_and_refuses_mixed_materials():
     for bad in ("grifith", -1.0, float("nan"), True, None, "1.5"):
         with pytest.raises((TypeError, ValueError), match="alpha"):
             em.EigenErosion(engine=mpm, Gc=3.0, alpha=bad, kappaOverH=1.1)
+
+
+class _Eroded:
+    """Stand-ins for an MpmEngine and its erosion state that hold given eroded points, all eroded
+    at time `now`: enough for EigenErosion's crack diagnostics."""
+
+    def __init__(self, x, kappa, now=1e-6):
+        self.x, self.kappa, self.now = np.asarray(x, float), kappa, now
+        self.solver = self
+        self.ranks = 1
+        self.time = now
+
+    def positions(self):
+        return self.x
+
+    def events(self):
+        return [(i, 1, self.now) for i in range(len(self.x))]
+
+
+def _throughThickness(branches, layers=16, h=0.5e-3):
+    """Eroded points of a crack through a 3D plate 4 mm thick (along y, `layers` point layers
+    h/2 apart) from (0.01, y, 0.02), one straight band per branch direction (unit x-z vectors),
+    its front 38 point spacings from the start in every layer."""
+    return np.array([(0.01 + d[0] * i * h / 2, (k + 0.5) * h / 2, 0.02 + d[1] * i * h / 2)
+                     for d in branches for k in range(layers) for i in range(39)])
+
+
+@pytest.mark.parametrize("branches", [[(1.0, 0.0)], [(0.8, 0.6), (0.8, -0.6)]])
+def test_a_front_through_the_thickness_is_one_tip_per_branch_with_through_axis(branches):
+    h = 0.5e-3
+    x = _throughThickness(branches, h=h)
+    fronts = {}
+    for axis in (None, "y"):
+        er = em.EigenErosion(Gc=1.0, kappa=1.1 * h, throughAxis=axis, origin=(0.01, 0.002, 0.02))
+        fake = _Eroded(x, 1.1 * h)
+        er.core, er._mpm = fake, fake
+        fronts[axis] = (er.tips(), er.frontDistance())
+    tips, front = fronts["y"]
+    assert len(tips) == len(branches)
+    for t in tips:
+        assert t[1] == 0.0
+        assert math.hypot(t[0] - 0.01, t[2] - 0.02) == pytest.approx(38 * h / 2)
+    assert front == pytest.approx(38 * h / 2, rel=1e-12)
+    # In 3D distances from the origin at mid-thickness, a face's points lie farther than the
+    # points inside at the same front: each face, more than 6 kappa from the other, has its own
+    # tip (a branching that is not), and the front distance takes in the offset.
+    assert len(fronts[None][0]) > len(branches)
+    assert fronts[None][1] > front
+
+
+def test_through_axis_is_refused_in_2d_and_checked():
+    mpm = em.MpmEngine(h=H)
+    mpm.fill(pack.inAlignedBox((0, 0, 0), (0.1, 0.05, 0)), em.ElasticMaterial(E=1e9, nu=0.2, rho=1000))
+    with pytest.raises(ValueError, match=r"throughAxis = 'z' is invalid for the 2D MpmEngine .* allowed: None in 2D"):
+        em.EigenErosion(engine=mpm, Gc=10.0, kappaOverH=1.1, throughAxis="z")
+    with pytest.raises(ValueError, match="throughAxis = 'w' is invalid; allowed: 'x', 'y' or 'z'"):
+        em.EigenErosion(Gc=10.0, kappaOverH=1.1, throughAxis="w")
+    assert em.EigenErosion(Gc=10.0, kappaOverH=1.1, throughAxis="Y").throughAxis == "y"
