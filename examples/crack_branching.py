@@ -28,7 +28,9 @@ as this fraction of the critical step, instead of dt_us), phantom, notchWidthOve
 (the tension/compression split of the strain energy: spectral, the paper's and the default; volumetric;
 none; see doc/fracture.md), E, nu, rho, Gc, traction_MPa, transfer (the particle-grid transfer of
 MpmEngine: FLIP, the paper's and the default, or APIC, which needs shape=uGIMP) and stressUpdate
-(smallStrain, the paper's and the default, or corotational; doc/stability.md). Writes
+(smallStrain, the paper's and the default, or corotational; doc/stability.md), distributedSetup
+(default 1: under mpiexec each rank builds only its share of the points, doc/parallel.md
+"Memory"; 0: every rank builds the whole scene first; the same results either way). Writes
 DIR/summary.json (initiation_time_us, branching_time_us, cut_through_time_us (the first time
 the crack grown from the pre-crack tip reaches the right edge; right_edge_time_upper_us and
 _lower_us per branch, branches_at_right_edge), max_tip_speed_m_s, dissipated_energy_J,
@@ -58,7 +60,8 @@ from eigenmpm.fracture import linked
 
 DEFAULTS = dict(h_mm=0.25, ppc=2, shape="uGIMP", kappaOverH=1.1, alpha=2.0, endTime_us=80.0, dt_us=0.01,
                 dtFraction=0.0, phantom=1.0, notchWidthOverH=2.0, vtkPeriod_us=10.0, E=72e9, nu=0.22, rho=2440.0,
-                Gc=135.0, traction_MPa=12.0, split="spectral", transfer="FLIP", stressUpdate="smallStrain")
+                Gc=135.0, traction_MPa=12.0, split="spectral", transfer="FLIP", stressUpdate="smallStrain",
+                distributedSetup=True)
 QUICK = dict(h_mm=1.0, endTime_us=40.0, dt_us=0.04)
 
 
@@ -72,7 +75,7 @@ def build(o):
     # The grid leaves 5 mm around the plate: after cut-through the halves fly apart.
     mpm = em.MpmEngine(dim=2, h=h, ppc=o["ppc"], shape=o["shape"], thickness=h, label="plate",
                        domain=((-0.005, -0.005, 0), (L + 0.005, W + 0.005, 0)),
-                       transfer=o["transfer"], stressUpdate=o["stressUpdate"])
+                       transfer=o["transfer"], stressUpdate=o["stressUpdate"], distributedSetup=o["distributedSetup"])
     glass = em.ElasticMaterial(E=o["E"], nu=o["nu"], rho=o["rho"], planeStress=True, split=o["split"])
     mpm.fill(plate, glass)
     if o["phantom"]:
@@ -85,17 +88,17 @@ def build(o):
     return mpm, crack
 
 
-def edgeArrivals(X0, events, L, W, spacing, radius):
+def edgeArrivals(x0, events, L, W, spacing, radius):
     """When the crack reaches the right edge: the erosion events of the crack connected (within
-    `radius`, reference positions) to the eroded point nearest the pre-crack tip, and among them
-    the first eroded within one point spacing of the right edge x = L, above and below mid-height.
+    `radius`, in the reference positions x0 of the events' points, a row each) to the eroded point
+    nearest the pre-crack tip, and among them the first eroded within one point spacing of the
+    right edge x = L, above and below mid-height.
     Returns (cut-through time, [upper branch time, lower branch time]) in s, None where not
     reached. The plate is cut through when the first branch reaches the edge."""
     if not events:
         return None, [None, None]
-    ids = np.array([e[0] for e in events])
     t = np.array([e[2] for e in events])
-    x = X0[ids, :2]
+    x = np.asarray(x0)[:, :2]
     main = linked(x, int(np.argmin(np.sum((x - (0.5 * L, 0.5 * W)) ** 2, axis=1))), radius)
     edge = main & (x[:, 0] >= L - spacing)
     times = [float(t[edge & side].min()) if np.any(edge & side) else None
@@ -129,16 +132,16 @@ def main(argv):
                      em.Progress(endIter=steps, realPeriod=20)]
         if every:
             O.engines = [em.Checkpoint(directory=os.path.join(out, "checkpoints"), iterPeriod=every)] + list(O.engines)
-    X0 = mpm.referencePositions
+    n = mpm.numPoints()  # (all points: under mpiexec a rank's solver holds its part, doc/parallel.md)
     start = time.time()
     end = runSteps(steps - O.iter)  # Ctrl-C, SIGTERM or a solver error: outputs up to the stop, then finish()
     steps = mpm.solver.steps
     wall = time.time() - start
-    n = len(X0)  # (all points: under mpiexec a rank's solver holds its part, doc/parallel.md)
     summary = dict(crack.summary())
     summary.pop("crack_tips_m")
     h = o["h_mm"] * 1e-3
-    cut, sides = edgeArrivals(X0, crack.core.events(), 0.1, 0.04, h / o["ppc"], 2 * o["kappaOverH"] * h)
+    events = crack.core.events()
+    cut, sides = edgeArrivals(mpm.referenceOf([e[0] for e in events]), events, 0.1, 0.04, h / o["ppc"], 2 * o["kappaOverH"] * h)
     summary.update(cut_through_time_us=None if cut is None else 1e6 * cut,
                    right_edge_time_upper_us=None if sides[0] is None else 1e6 * sides[0],
                    right_edge_time_lower_us=None if sides[1] is None else 1e6 * sides[1],

@@ -83,7 +83,9 @@ transfer (the particle-grid transfer of MpmEngine: FLIP, the paper's and the def
 stressUpdate (smallStrain, the paper's and the default, or corotational; doc/stability.md),
 loading (condition, the paper's and the default: velocity conditions on the grid; bodies: YADE
 bodies with contact, see above; supportWidth_mm then unused), supportRadius_mm and
-hammerHeight_mm (loading=bodies only; the hammer is loadWidth_mm wide). Writes
+hammerHeight_mm (loading=bodies only; the hammer is loadWidth_mm wide), distributedSetup (default
+1: under mpiexec each rank builds only its share of the points, doc/parallel.md "Memory"; 0: every
+rank builds the whole scene first; the same results either way). Writes
 DIR/summary.json (crack_origin, initiation_time_us, notch_/midspan_initiation_time_us and the load
 and nominal midspan bending stress then (notch_/midspan_initiation_load_N, ..._midspan_stress_Pa), the
 crack tops, eroded_elsewhere, peak_load_N, dissipated_energy_J, transfer, stress_update, particles,
@@ -128,7 +130,8 @@ DEFAULTS = dict(gamma=0.5, h_mm=0.635, kappaOverH=1.15, alpha=2.0, endTime_us=40
                 v0_m_s=0.06, rampTime_us=196.0, overhang_mm=12.7, flaw_mm=1.27, notchWidth_mm=0.0, flawWidth_mm=0.0,
                 supportWidth_mm=2.54, loadWidth_mm=2.54, stopAfter_us=20.0,
                 vtkPeriod_us=100.0, E=31.37e9, nu=0.2, rho=2400.0, Gc=31.1, transfer="FLIP",
-                stressUpdate="smallStrain", loading="condition", supportRadius_mm=6.35, hammerHeight_mm=10.0)
+                stressUpdate="smallStrain", loading="condition", supportRadius_mm=6.35, hammerHeight_mm=10.0,
+                distributedSetup=True)
 QUICK = dict(h_mm=2.54, dt_us=0.5)
 LOADINGS = ("condition", "bodies")
 D, L, L1, A = 0.0762, 0.2286, 0.1016, 0.01905
@@ -147,7 +150,7 @@ def geometry(o):
 def build(o):
     h, s, half, xn = geometry(o)
     mpm = em.MpmEngine(dim=2, h=h, ppc=2, thickness=h, label="beam", transfer=o["transfer"],
-                       stressUpdate=o["stressUpdate"])
+                       stressUpdate=o["stressUpdate"], distributedSetup=o["distributedSetup"])
     concrete = em.ElasticMaterial(E=o["E"], nu=o["nu"], rho=o["rho"], planeStress=True)
     beam = pack.inAlignedBox((-half, 0, 0), (half, D, 0))
     w = 0.5e-3 * o["notchWidth_mm"]
@@ -189,15 +192,17 @@ def loadingBodies(o, mpm):
     steel = O.materials.append(FrictMat(density=7800, young=2e11, poisson=0.3, frictionAngle=0, label="steel"))
     h = geometry(o)[0]
     r, w = o["supportRadius_mm"] * 1e-3, 0.25 * h  # w: the points' half-width, where they touch
-    X = mpm.referencePositions
-    bottom = X[X[:, 1] < np.min(X[:, 1]) + 0.1 * h]
+    X = mpm.referenceOfPoints()  # this process's points (under mpiexec: its share)
+    low = em.parallel.bounds(X[:, 1:2])[0][0]  # the bottom row's y over every rank
+    bottom = X[X[:, 1] < low + 0.1 * h]
     supports = []
     for x in (-0.5 * L, 0.5 * L):
         # the sphere's surface exactly w from the nearest point of the bottom row (y = s/2): with
         # its top at y = 0 a support between two columns would leave a gap (32 um at h = 2.54 mm,
         # a third of the load point's travel when the notch cracks), which the beam falls through
-        dx = np.min(np.abs(bottom[:, 0] - x))
-        y = np.min(bottom[:, 1]) - math.sqrt((r + w) ** 2 - dx ** 2)
+        near = np.min(np.abs(bottom[:, 0] - x)) if len(bottom) else np.inf
+        dx = em.parallel.bounds(np.array([[near]]))[0][0]
+        y = low - math.sqrt((r + w) ** 2 - dx ** 2)
         supports.append(O.bodies.append(utils.sphere((x, y, 0), r, material=steel, fixed=True)))
     wl, hh = 0.5e-3 * o["loadWidth_mm"], 0.5e-3 * o["hammerHeight_mm"]
     hammer = O.bodies.append(utils.box((0, D + hh, 0), (wl, hh, 0.5 * wl + hh), material=steel, fixed=True))
@@ -220,13 +225,14 @@ class HammerDriver:
         O.bodies[self.hammer].state.vel = (0, -v, 0)
 
 
-def connected(X0, ids, seed, radius):
-    """Indices into ids of the points connected to ids[seed] within radius."""
-    return np.nonzero(linked(X0[ids, :2], seed, radius))[0]
+def connected(x, seed, radius):
+    """Indices of the rows of x (reference positions) connected to row `seed` within radius."""
+    return np.nonzero(linked(x, seed, radius))[0]
 
 
-def analyse(o, X0, events, kappa):
-    """Where and when cracks started: the eroded points connected (within 2 kappa) to an eroded
+def analyse(o, x0, events, kappa):
+    """Where and when cracks started (x0: the reference positions of the events' points, a row
+    each): the eroded points connected (within 2 kappa) to an eroded
     point within 4 h of the notch tip or of the flaw tip form the notch and midspan cracks; the
     crack that started first (its first erosion) gives crack_origin and initiation_time_us."""
     h, s, half, xn = geometry(o)
@@ -239,7 +245,7 @@ def analyse(o, X0, events, kappa):
         return res
     ids = np.array([e[0] for e in events])
     t = np.array([e[2] for e in events])
-    x = X0[ids, :2]
+    x = np.asarray(x0)[:, :2]
     first = t <= t[0] + 1e-12
     res.update(first_erosion_mm=(1e3 * x[first].mean(axis=0)).tolist(), first_erosion_time_us=1e6 * t[0])
     claimed = np.zeros(len(ids), bool)
@@ -247,7 +253,7 @@ def analyse(o, X0, events, kappa):
         d = np.linalg.norm(x - tip, axis=1)
         if d.min() > 4.0 * h:
             continue
-        member = connected(X0, ids, int(np.argmin(d)), 2.0 * kappa)
+        member = connected(x, int(np.argmin(d)), 2.0 * kappa)
         claimed[member] = True
         res[f"{name}_initiation_time_us"] = 1e6 * float(t[member].min())
         res[f"{name}_crack_points"] = int(len(member))
@@ -286,7 +292,6 @@ class LoadWatch:
 
     def __call__(self):
         o, mpm = self.o, self.mpm
-        X0 = mpm.referencePositions
         P, left, right = self.reactions()
         if self.contact is None:
             self.curve.append((mpm.solver.time, P, left + right))
@@ -295,7 +300,8 @@ class LoadWatch:
         if self.at is None and self.crack.core.erodedCount and len(self.curve) % self.checkEvery == 0:
             ev = self.crack.core.events()
             kappa = o["kappaOverH"] * geometry(o)[0]
-            if np.max(X0[[e[0] for e in ev], 1]) >= 0.9 * D and analyse(o, X0, ev, kappa)["crack_top_fraction"] >= 0.9:
+            x0 = mpm.referenceOf([e[0] for e in ev])  # (every rank calls it, as it must)
+            if np.max(x0[:, 1]) >= 0.9 * D and analyse(o, x0, ev, kappa)["crack_top_fraction"] >= 0.9:
                 self.at = mpm.solver.time
         if self.at is not None and o["stopAfter_us"] >= 0 and mpm.solver.time >= self.at + o["stopAfter_us"] * 1e-6:
             O.pause()
@@ -370,14 +376,14 @@ def main(argv):
                           NewtonIntegrator(damping=0)] + list(O.engines)[2:])
         if every:
             O.engines = [em.Checkpoint(directory=os.path.join(out, "checkpoints"), iterPeriod=every)] + list(O.engines)
-    X0 = mpm.referencePositions
+    n = mpm.numPoints()  # (all points: under mpiexec a rank's solver holds its part)
     start = time.time()
     end = runSteps(steps - O.iter)  # Ctrl-C, SIGTERM or a solver error: outputs up to the stop, then finish()
     wall = time.time() - start
     steps = mpm.solver.steps
-    n = len(mpm.referencePositions)  # (all points: under mpiexec a rank's solver holds its part)
     speeds = em.parallel.gather(mpm, np.linalg.norm(mpm.solver.velocities(), axis=1))
-    summary = analyse(o, X0, crack.core.events(), kappa)
+    events = crack.core.events()
+    summary = analyse(o, mpm.referenceOf([e[0] for e in events]), events, kappa)
     cs = crack.summary()
     curve = np.array(watch.curve)
     if bodies:  # the contact's force comes in steps (each first touch is an impulse): 10 us means

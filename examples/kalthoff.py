@@ -95,7 +95,9 @@ corotational; doc/stability.md), crackContact (0, the paper's and the default: t
 faces pass through each other; 1: they touch, doc/contact.md), projectile (condition, the
 paper's and the default: the velocity condition v0_m_s with the ramp rampTime_us; body: a YADE
 rigid body, see above), projectileSpeed_m_s, projectileMass_kg (kg per metre of thickness of the
-half model; 0, the default, or inf: kinematic) and projectileLength_mm (projectile=body only; v0_m_s and rampTime_us then unused).
+half model; 0, the default, or inf: kinematic) and projectileLength_mm (projectile=body only; v0_m_s and rampTime_us then unused),
+distributedSetup (default 1: under mpiexec each rank builds only its share of the points,
+doc/parallel.md "Memory"; 0: every rank builds the whole scene first; the same results either way).
 With projectile=body the summary adds the projectile's speed at the start, at initiation and
 at the end, its peak force and the impulse it gave the plate (per metre of thickness), the
 momentum it lost, and when it lost contact (projectile_*), and the VTK series has the plate's
@@ -138,7 +140,8 @@ DEFAULTS = dict(h_mm=0.5, kappaOverH=1.15, alpha=2.0, endTime_us=110.0, dt_us=0.
                 rampTime_us=1.0, slitWidth_mm=1.0, slitLength_mm=40.0, stopAfter_us=2.0, initLength_mm=10.0,
                 tipWindow_us=2.0, vtkPeriod_us=10.0, E=190e9, nu=0.3, rho=8000.0, Gc=22130.0,
                 split="spectral", transfer="FLIP", stressUpdate="smallStrain", crackContact=False,
-                projectile="condition", projectileSpeed_m_s=16.5, projectileMass_kg=0.0, projectileLength_mm=50.0)
+                projectile="condition", projectileSpeed_m_s=16.5, projectileMass_kg=0.0, projectileLength_mm=50.0,
+                distributedSetup=True)
 QUICK = dict(h_mm=1.0, dt_us=0.12)
 PROJECTILES = ("condition", "body")
 RAYLEIGH = 2803.0
@@ -160,7 +163,8 @@ def build(o):
     # its points outward by more than a few cells (at h = 0.5 mm a point left a 3-cell margin at 86 us).
     mpm = em.MpmEngine(dim=2, h=h, ppc=2, thickness=1.0, label="plate",
                        domain=((-0.005, -0.005, 0), (SIZE + 0.005, SIZE + 0.005, 0)),
-                       transfer=o["transfer"], stressUpdate=o["stressUpdate"], crackContact=o["crackContact"])
+                       transfer=o["transfer"], stressUpdate=o["stressUpdate"], crackContact=o["crackContact"],
+                       distributedSetup=o["distributedSetup"])
     steel = em.ElasticMaterial(E=o["E"], nu=o["nu"], rho=o["rho"], planeStress=False, split=o["split"])
     plate = pack.inAlignedBox((0, 0, 0), (SIZE, SIZE, 0))
     if o["slitWidth_mm"] > 0 and o["slitLength_mm"] > 0:
@@ -251,17 +255,17 @@ def projectileSummary(o, watch, initiation_us):
                 projectile_contact_end_us=left)
 
 
-def crackPoints(X0, events, tip, radius):
+def crackPoints(x0, events, tip, radius):
     """The erosion events (id, time) whose points are connected, within `radius` in the
-    reference configuration, to the eroded point nearest the notch tip; and the others."""
+    reference configuration (x0: the reference positions of the events' points, a row each), to
+    the eroded point nearest the notch tip, with their rows of x0 (x, y); and the others."""
     if not events:
-        return [], []
-    ids = np.array([e[0] for e in events])
-    x = X0[ids, :2]
+        return [], [], np.zeros((0, 2))
+    x = np.asarray(x0)[:, :2]
     seen = linked(x, int(np.argmin(np.sum((x - tip) ** 2, axis=1))), radius)
     pick = [(int(e[0]), float(e[2])) for e, s in zip(events, seen) if s]
     rest = [(int(e[0]), float(e[2])) for e, s in zip(events, seen) if not s]
-    return pick, rest
+    return pick, rest, x[seen]
 
 
 def fitAngle(d):
@@ -276,17 +280,18 @@ def fitAngle(d):
     return math.degrees(math.atan2(a[1], a[0]))
 
 
-def analyse(o, X0, events, spacing, kappa):
+def analyse(o, x0, events, spacing, kappa):
+    """The crack's path, angles and tip speed from the erosion events and the reference positions
+    x0 of their points (a row each)."""
     tip = np.array([NOTCH_LEN, notchY(o["h_mm"] * 1e-3)])
-    pick, rest = crackPoints(X0, events, tip, 2.0 * kappa)
+    pick, rest, xs = crackPoints(x0, events, tip, 2.0 * kappa)
     res = dict(crack_points=len(pick), eroded_elsewhere=len(rest), crack_angle_initial_deg=None,
                crack_angle_overall_deg=None, crack_angle_fit_deg=None, boundary_time_us=None,
                initial_angle_time_us=None, crack_end_mm=None, crack_length_chord_mm=0.0)
     if not pick:
         return res, np.zeros((0, 2)), np.zeros(0), np.array([]), np.array([])
-    ids = np.array([p for p, _ in pick])
     t = np.array([s for _, s in pick])
-    d = X0[ids, :2] - tip
+    d = xs - tip
     r = np.hypot(d[:, 0], d[:, 1])
     # initial angle: the path within initLength of the tip once the crack is that long
     L0 = o["initLength_mm"] * 1e-3
@@ -299,14 +304,14 @@ def analyse(o, X0, events, spacing, kappa):
         sel = r <= L0
     res["crack_angle_initial_deg"] = fitAngle(d[sel])
     # overall angle: the chord from the notch tip to where the crack reaches the boundary
-    onEdge = np.nonzero((X0[ids, 0] >= SIZE - spacing) | (X0[ids, 1] >= SIZE - spacing))[0]
+    onEdge = np.nonzero((xs[:, 0] >= SIZE - spacing) | (xs[:, 1] >= SIZE - spacing))[0]
     if len(onEdge):
         k = onEdge[np.argmin(t[onEdge])]
         res["boundary_time_us"] = 1e6 * t[k]
     else:
         k = int(np.argmax(r))
     res["crack_angle_overall_deg"] = math.degrees(math.atan2(d[k, 1], d[k, 0]))
-    res["crack_end_mm"] = (1e3 * X0[ids[k], :2]).tolist()
+    res["crack_end_mm"] = (1e3 * xs[k]).tolist()
     res["crack_length_chord_mm"] = 1e3 * float(r[k])
     res["crack_angle_fit_deg"] = fitAngle(d)
     # tip speed: front distance against erosion time, over a sliding window
@@ -321,7 +326,7 @@ def analyse(o, X0, events, spacing, kappa):
         if g - grid[j] >= w * (1 - 1e-9):
             speedT.append(g - 0.5 * w)
             speed.append((f[i] - f[j]) / (g - grid[j]))
-    return res, X0[ids, :2], t, np.array(speedT), np.array(speed)
+    return res, xs, t, np.array(speedT), np.array(speed)
 
 
 class EdgeWatch:
@@ -338,14 +343,12 @@ class EdgeWatch:
 
     def __call__(self):
         mpm, spacing = self.mpm, self.spacing
-        X0 = mpm.referencePositions
         if self.at is None:
             ev = self.crack.core.events()
-            ids = [e[0] for e in ev]
-            if ids and np.max(X0[ids, :2]) >= SIZE - spacing:
-                pick, _ = crackPoints(X0, ev, np.array([NOTCH_LEN, notchY(self.h)]), 2.0 * self.kappa)
-                ids = [p for p, _ in pick]
-                if np.max(X0[ids, :2]) >= SIZE - spacing:
+            x0 = mpm.referenceOf([e[0] for e in ev])[:, :2]  # (every rank calls it, as it must)
+            if len(ev) and np.max(x0) >= SIZE - spacing:
+                _, _, xs = crackPoints(x0, ev, np.array([NOTCH_LEN, notchY(self.h)]), 2.0 * self.kappa)
+                if np.max(xs) >= SIZE - spacing:
                     self.at = mpm.solver.time
         if self.at is not None and mpm.solver.time >= self.at + self.stopAfter_us * 1e-6:
             O.pause()
@@ -391,7 +394,7 @@ def main(argv):
         if every:
             engines.insert(0, em.Checkpoint(directory=os.path.join(out, "checkpoints"), iterPeriod=every))
         O.engines = engines
-    X0 = mpm.referencePositions
+    n = mpm.numPoints()  # (all points: under mpiexec a rank's solver holds its part)
     h = o["h_mm"] * 1e-3
     kappa = o["kappaOverH"] * h
     spacing = h / mpm.ppc
@@ -399,9 +402,9 @@ def main(argv):
     end = runSteps(steps - O.iter)  # Ctrl-C, SIGTERM or a solver error: outputs up to the stop, then finish()
     wall = time.time() - start
     steps = mpm.solver.steps
-    n = len(mpm.referencePositions)  # (all points: under mpiexec a rank's solver holds its part)
     speeds = em.parallel.gather(mpm, np.linalg.norm(mpm.solver.velocities(), axis=1))
-    res, path, tEr, speedT, speed = analyse(o, X0, crack.core.events(), spacing, kappa)
+    events = crack.core.events()
+    res, path, tEr, speedT, speed = analyse(o, mpm.referenceOf([e[0] for e in events]), events, spacing, kappa)
     s = crack.summary()
     summary = dict(initiation_time_us=s["initiation_time_us"], **res,
                    max_tip_speed_m_s=float(speed.max()) if len(speed) else 0.0,

@@ -272,7 +272,8 @@ class MpmEngine(PyRunner):
         Param("distributedSetup", False, "", "under mpiexec: every rank keeps only its share of the points "
                                              "from fill()/addPoints() on, so that no rank holds the whole "
                                              "scene (doc/parallel.md, 'Memory'); referencePositions is then "
-                                             "None (referenceOfPoints() gives this rank's); the results do "
+                                             "None (referenceOfPoints() gives this rank's, referenceOf(ids) "
+                                             "given points' on every rank); the results do "
                                              "not change", fixed=True),
     )
 
@@ -457,6 +458,15 @@ class MpmEngine(PyRunner):
             return np.asarray(s.referencePositions())
         x0 = self.referencePositions
         return x0[s.globalIds()] if s.ranks > 1 else x0
+
+    def referenceOf(self, ids):
+        """Where the points with these ids (in the one-process scene, e.g. the eroded points of
+        EigenErosion.core.events()) were added, one row each (m), on every rank. Under mpiexec
+        with distributedSetup, only these points' rows travel between the ranks, and every rank
+        must call it; otherwise it is referencePositions[ids]."""
+        if self.referencePositions is not None:
+            return self.referencePositions[np.asarray(ids, dtype=np.int64)]
+        return parallel.valuesOf(self, ids, self.solver.referencePositions())
 
     def numPoints(self):
         """The points of the whole scene (under mpiexec: of every rank)."""

@@ -66,22 +66,29 @@ def positionsOf(engine, ids):
     are `ids`, in that order, on every rank; every rank must call it. Under mpiexec only these
     points' positions are sent (each rank finds its own among them), not every rank's points
     as with ``gather``: the crack diagnostics read the eroded points this way."""
+    return valuesOf(engine, ids, engine.solver.positions())
+
+
+def valuesOf(engine, ids, values):
+    """The rows of `values` (a per-point array of this rank's points of `engine`, in the order of
+    solver.positions()) of the points whose ids in the one-process scene are `ids`, in that
+    order, on every rank; every rank must call it. Only these rows travel between the ranks."""
     ids = np.asarray(ids, dtype=np.int64)
     solver = engine.solver
-    x = np.asarray(solver.positions())
+    values = np.asarray(values)
     if solver.ranks == 1:
-        return x[ids]
+        return values[ids]
     mine = np.asarray(solver.globalIds(), dtype=np.int64)  # sorted
     k = np.minimum(np.searchsorted(mine, ids), max(len(mine) - 1, 0))
     here = (mine[k] == ids) if len(mine) else np.zeros(len(ids), dtype=bool)
     from mpi4py import MPI
     comm = MPI.COMM_WORLD
     found = np.concatenate(comm.allgather(ids[here]))
-    where = np.concatenate(comm.allgather(x[k[here]].reshape(-1, 3)))
+    where = np.concatenate(comm.allgather(values[k[here]].reshape((-1,) + values.shape[1:])))
     order = np.argsort(found)
     at = order[np.searchsorted(found[order], ids)]
     if not np.array_equal(found[at], ids):
-        raise ValueError("EigenMPM: positionsOf: some ids name no point of any rank")
+        raise ValueError("EigenMPM: some ids name no point of any rank")
     return where[at]
 
 
