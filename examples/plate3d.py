@@ -19,9 +19,11 @@ Run::
 
 with params h_mm, thickness_mm, ppc, kappaOverH, alpha, endTime_us, dt_us, vtkPeriod_us, Gc,
 traction_MPa, distributedSetup (default 1: under mpiexec each rank builds only its share of the
-points, doc/parallel.md "Memory"; 0: every rank builds the whole scene first). Writes (rank 0) DIR/summary.json (initiation_time_us, branching_time_us, as in
-crack_branching.py's summary; eroded_points, dissipated_energy_J, particles, steps, ranks,
-wall_time_s, particle_steps_per_s), DIR/damage.png (projected on the x-z plane) and the VTK series
+points, doc/parallel.md "Memory"; 0: every rank builds the whole scene first). Writes (rank 0)
+DIR/summary.json (initiation_time_us, branching_time_us, as in crack_branching.py's summary;
+eroded_points, dissipated_energy_J, particles, steps, ranks, wall_time_s, particle_steps_per_s;
+front_profile_mm: for each layer of points through the thickness, its y and the crack front's
+distance from the pre-crack tip there, mm), DIR/damage.png (projected on the x-z plane) and the VTK series
 DIR/vtk/plate-*.pvtp or .vtp. Default: h = 1 mm, thickness 4 mm (128 000 points), 80 us.
 --quick: h = 2 mm, 40 us (16 000 points). --checkpoint-every N and --resume DIR as in the other
 examples (doc/restart.md).
@@ -85,6 +87,8 @@ def main(argv):
     wall = time.time() - start
     summary = dict(crack.summary())
     summary.pop("crack_tips_m")
+    along, front = crack.frontProfile()  # the front through the thickness, layer by layer
+    summary.update(front_profile_mm=[[1e3 * a, 1e3 * f] for a, f in zip(along, front)])
     summary.update(eroded_points=crack.erodedCount(), particles=n, steps=mpm.solver.steps, ranks=mpm.solver.ranks,
                    wall_time_s=wall, particle_steps_per_s=n * mpm.solver.steps / wall, parameters=o, quick=quick,
                    **end.summary())

@@ -349,3 +349,20 @@ def test_through_axis_is_refused_in_2d_and_checked():
     with pytest.raises(ValueError, match="throughAxis = 'w' is invalid; allowed: 'x', 'y' or 'z'"):
         em.EigenErosion(Gc=10.0, kappaOverH=1.1, throughAxis="w")
     assert em.EigenErosion(Gc=10.0, kappaOverH=1.1, throughAxis="Y").throughAxis == "y"
+
+
+def test_front_profile_gives_each_layer_its_front():
+    """A front tunnelling through a 4 mm plate: the layers inside lead the faces."""
+    h = 0.5e-3
+    lead = [30, 32, 34, 36, 38, 38, 38, 38, 38, 38, 38, 38, 36, 34, 32, 30]
+    x = np.array([(0.01 + i * h / 2, (k + 0.5) * h / 2 + 1e-9 * i, 0.02) for k in range(16) for i in range(lead[k] + 1)])
+    er = em.EigenErosion(Gc=1.0, kappa=1.1 * h, throughAxis="y", origin=(0.01, 0.002, 0.02))
+    fake = _Eroded(x, 1.1 * h)
+    fake.h, fake.ppc = h, 2
+    er.core, er._mpm = fake, fake
+    along, front = er.frontProfile()
+    assert along == pytest.approx([(k + 0.5) * h / 2 for k in range(16)], abs=1e-7)
+    assert front == pytest.approx([n * h / 2 for n in lead], rel=1e-12)
+    assert er.frontDistance() == pytest.approx(38 * h / 2, rel=1e-12)
+    with pytest.raises(ValueError, match="frontProfile needs throughAxis"):
+        em.EigenErosion(Gc=1.0, kappa=1.1 * h).frontProfile(fake)

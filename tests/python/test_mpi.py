@@ -183,9 +183,13 @@ def test_the_3d_plate_cracks_alike_on_one_and_on_two_ranks(tmp_path):
     assert one["eroded_points"] > 100 and one["initiation_time_us"] is not None
     assert 5 < one["initiation_time_us"] < 20  # the 2D plates start at 10-12 us
     for key in ("initiation_time_us", "branching_time_us", "eroded_points", "dissipated_energy_J",
-                "crack_front_distance_m", "max_tip_speed_m_s", "particles", "steps"):
+                "crack_front_distance_m", "max_tip_speed_m_s", "particles", "steps", "front_profile_mm"):
         assert two[key] == one[key], key
     assert two["ranks"] == 2 and (tmp_path / "ranks2" / "damage.png").exists()
+    # the front layer by layer through the thickness (4 layers of points at h = 2 mm): the deepest is
+    # the summary's front
+    assert len(one["front_profile_mm"]) == 4
+    assert max(f for _, f in one["front_profile_mm"]) == pytest.approx(1e3 * one["crack_front_distance_m"])
 
 
 @pytest.mark.parametrize("name", ["lshaped_panel", "kalthoff", "john_shah"])
