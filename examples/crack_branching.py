@@ -141,7 +141,8 @@ def main(argv):
     summary.pop("crack_tips_m")
     h = o["h_mm"] * 1e-3
     events = crack.core.events()
-    cut, sides = edgeArrivals(mpm.referenceOf([e[0] for e in events]), events, 0.1, 0.04, h / o["ppc"], 2 * o["kappaOverH"] * h)
+    cut, sides = edgeArrivals(mpm.referenceOf([e[0] for e in events]), events, 0.1, 0.04, h / o["ppc"],
+                              2 * o["kappaOverH"] * h)
     summary.update(cut_through_time_us=None if cut is None else 1e6 * cut,
                    right_edge_time_upper_us=None if sides[0] is None else 1e6 * sides[0],
                    right_edge_time_lower_us=None if sides[1] is None else 1e6 * sides[1],

@@ -282,9 +282,9 @@ class EigenErosion(PyRunner):
     def frontProfile(self, mpm=None):
         """The front through the thickness (needs throughAxis): the eroded points of the main
         crack in layers of one point spacing (h / ppc) along throughAxis, and in each layer the
-        largest in-plane distance from the origin. Returns (the layers' mean coordinates along the axis, m;
-        front distances, m), both empty before cracking. A straight front gives equal distances;
-        a tunnelling one leads inside. Under mpiexec every rank must call it."""
+        largest in-plane distance from the origin. Returns (each layer's mean coordinate along
+        the axis, m; its front distance, m), both empty before cracking. A straight front gives
+        equal distances; a tunnelling one leads inside. Under mpiexec every rank must call it."""
         mpm = mpm or self._mpm
         if self.throughAxis is None:
             raise ValueError(f"EigenMPM: frontProfile needs throughAxis; EigenErosion {self.label!r} has "
@@ -300,7 +300,7 @@ class EigenErosion(PyRunner):
         r = np.sqrt(np.sum((x[main] - origin) ** 2, axis=1))
         layer = np.rint((along - along.min()) / (mpm.h / mpm.ppc)).astype(np.int64)
         keys = np.unique(layer)
-        return (np.array([along[layer == k].mean() for k in keys]), np.array([r[layer == k].max() for k in keys]))
+        return np.array([along[layer == k].mean() for k in keys]), np.array([r[layer == k].max() for k in keys])
 
     def _mainCrack(self, x, origin):
         """Which eroded points (at x, one row each) belong to the crack grown from the origin:
