@@ -12,18 +12,23 @@ from .params import Param, apply, declare
 
 def linked(x, seed, radius):
     """Boolean mask of the rows of x (n x dim) linked to row `seed` through chains of points no
-    farther apart than `radius` (a flood fill with scipy's k-d tree)."""
+    farther apart than `radius`: the connected component of `seed` in the graph of the pairs
+    within `radius` (scipy's k-d tree finds the pairs, scipy.sparse.csgraph the components)."""
     from scipy.spatial import cKDTree
-    tree = cKDTree(x)
-    seen = np.zeros(len(x), bool)
-    seen[seed] = True
-    todo = [seed]
-    while todo:
-        for j in tree.query_ball_point(x[todo.pop()], radius):
-            if not seen[j]:
-                seen[j] = True
-                todo.append(j)
-    return seen
+    pairs = cKDTree(x).query_pairs(radius, output_type="ndarray")
+    label = _components(len(x), pairs)
+    return label == label[seed]
+
+
+_DENSE_CELLS = 8.0  # _mainCrack labels a dense box of cells up to this many cells per point (+512)
+
+
+def _components(n, pairs):
+    """Component label of each of n nodes joined by the rows of `pairs` (k x 2 node numbers)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    return connected_components(graph, directed=False)[1]
 
 
 def _planarOrigin(origin, dim, label):
@@ -220,28 +225,46 @@ class EigenErosion(PyRunner):
         throughAxis (a 3D plate), the points are projected on the plane normal to that axis first,
         so that a front through the thickness is one tip (its component along the axis is 0)."""
         mpm = mpm or self._mpm
+        return self._tipsOf(mpm, self._crack(mpm))
+
+    def _crack(self, mpm):
+        """What the crack diagnostics of one moment share: (events, the eroded points' positions
+        (projected with throughAxis), the origin, which of them form the main crack), or None
+        before the first erosion. Under mpiexec every rank must call it."""
         events = self.core.events() if self.core else []
         if not events:
-            return []
-        window = self.tipWindow if self.tipWindow else 50 * O.dt
-        now = mpm.solver.time
+            return None
         x = self._erodedPositions(mpm, events)
         origin = self._originPoint(x)
-        main = self._mainCrack(x, origin)
-        recent = main & (np.array([t for _, _, t in events]) >= now - window)
+        return events, x, origin, self._mainCrack(x, origin)
+
+    def _tipsOf(self, mpm, crack):
+        """tips() from a _crack() state. A k-d tree over the main crack's points proposes each
+        recent point's neighbours within R (and a hair beyond); the test itself is the squared
+        distance against R^2, as in the plain loop it replaces (tests/python/test_erosion.py). A
+        recent point with a farther neighbour is no tip; the others, few, are merged in order."""
+        if crack is None:
+            return []
+        from scipy.spatial import cKDTree
+        events, x, origin, main = crack
+        window = self.tipWindow if self.tipWindow else 50 * O.dt
+        recent = main & (np.array([t for _, _, t in events]) >= mpm.solver.time - window)
         if not np.any(recent):
             return []
-        R2 = (6.0 * self.core.kappa) ** 2
+        R = 6.0 * self.core.kappa
+        R2 = R ** 2
         xm, xr = x[main], x[recent]
         r = np.sum((xm - origin) ** 2, axis=1)
         rr = np.sum((xr - origin) ** 2, axis=1)
-        order = np.argsort(-rr)
+        near = cKDTree(xr).sparse_distance_matrix(cKDTree(xm), R * (1.0 + 1e-9), output_type="ndarray")
+        i, j = near["i"].astype(np.int64), near["j"].astype(np.int64)
+        within = np.sum((xm[j] - xr[i]) ** 2, axis=1) <= R2
+        farther = np.bincount(i[within & (r[j] > rr[i])], minlength=len(xr)) > 0
         tips = []
-        for k in order:
-            p = xr[k]
-            near = np.sum((xm - p) ** 2, axis=1) <= R2
-            if np.any(r[near] > rr[k]):
+        for k in np.argsort(-rr):
+            if farther[k]:
                 continue
+            p = xr[k]
             if all(np.sum((p - t) ** 2) > R2 for t in tips):
                 tips.append(p.copy())
         return tips
@@ -271,12 +294,13 @@ class EigenErosion(PyRunner):
     def frontDistance(self, mpm=None):
         """Largest distance from the crack origin to an eroded point, m (0 before cracking)."""
         mpm = mpm or self._mpm
-        events = self.core.events() if self.core else []
-        if not events:
+        return self._frontOf(self._crack(mpm))
+
+    @staticmethod
+    def _frontOf(crack):
+        if crack is None:
             return 0.0
-        x = self._erodedPositions(mpm, events)
-        origin = self._originPoint(x)
-        main = self._mainCrack(x, origin)
+        _, x, origin, main = crack
         return float(np.sqrt(np.max(np.sum((x[main] - origin) ** 2, axis=1))))
 
     def frontProfile(self, mpm=None):
@@ -305,27 +329,34 @@ class EigenErosion(PyRunner):
     def _mainCrack(self, x, origin):
         """Which eroded points (at x, one row each) belong to the crack grown from the origin:
         those linked to the eroded point nearest the origin through eroded points in neighbouring
-        cells of size R = 6 kappa. Erosion elsewhere (under a support, a second crack) is left
-        out of the tips and the front, so that it cannot make the front jump."""
+        cells of size R = 6 kappa (the 3^3 cells around a cell; in 2D z = 0 throughout). Erosion
+        elsewhere (under a support, a second crack) is left out of the tips and the front, so that
+        it cannot make the front jump. The occupied cells are labelled by connected components
+        (scipy.ndimage.label on the cells' box, or, where that box is far larger than the points,
+        a k-d tree in the max norm joining the cells that touch)."""
         R = 6.0 * self.core.kappa
         cell = np.floor(x / R).astype(np.int64)
-        occupied = {tuple(c) for c in cell}
-        start = tuple(cell[np.argmin(np.sum((x - origin) ** 2, axis=1))])
-        reached, stack = {start}, [start]
-        offsets = list(np.ndindex(3, 3, 3))  # in 2D z = 0 throughout, so z offsets find nothing
-        while stack:
-            c = stack.pop()
-            for o in offsets:
-                n = (c[0] + o[0] - 1, c[1] + o[1] - 1, c[2] + o[2] - 1)
-                if n in occupied and n not in reached:
-                    reached.add(n)
-                    stack.append(n)
-        return np.array([tuple(c) in reached for c in cell])
+        cell -= cell.min(axis=0)
+        shape = cell.max(axis=0) + 1
+        start = np.argmin(np.sum((x - origin) ** 2, axis=1))
+        if np.prod(shape.astype(float)) <= _DENSE_CELLS * (len(x) + 512):
+            from scipy import ndimage
+            occupied = np.zeros(tuple(shape), dtype=bool)
+            occupied[tuple(cell.T)] = True
+            label = ndimage.label(occupied, structure=np.ones((3, 3, 3), dtype=bool))[0][tuple(cell.T)]
+            return label == label[start]
+        from scipy.spatial import cKDTree
+        cells, cellOf = np.unique(cell, axis=0, return_inverse=True)
+        cellOf = cellOf.reshape(-1)
+        pairs = cKDTree(cells.astype(float)).query_pairs(1.0, p=np.inf, output_type="ndarray")
+        label = _components(len(cells), pairs)
+        return label[cellOf] == label[cellOf[start]]
 
     def record(self, mpm=None):
         mpm = mpm or self._mpm
+        crack = self._crack(mpm)
         self.history.append((mpm.solver.time, self.dissipatedEnergy(), self.erodedCount(),
-                             self.frontDistance(mpm), [t.tolist() for t in self.tips(mpm)]))
+                             self._frontOf(crack), [t.tolist() for t in self._tipsOf(mpm, crack)]))
 
     def tipSpeed(self, window=None):
         """Crack tip speed over the recorded history, as (times, speeds in m/s): the rate of

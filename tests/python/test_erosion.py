@@ -366,3 +366,118 @@ def test_front_profile_gives_each_layer_its_front():
     assert er.frontDistance() == pytest.approx(38 * h / 2, rel=1e-12)
     with pytest.raises(ValueError, match="frontProfile needs throughAxis"):
         em.EigenErosion(Gc=1.0, kappa=1.1 * h).frontProfile(fake)
+
+
+# --- the crack diagnostics against their plain forms ----------------------------------------------
+def _plainLinked(x, seed, radius):
+    """The flood fill that linked() replaced: one k-d tree ball query per reached point."""
+    from scipy.spatial import cKDTree
+    tree = cKDTree(x)
+    seen = np.zeros(len(x), bool)
+    seen[seed] = True
+    todo = [seed]
+    while todo:
+        for j in tree.query_ball_point(x[todo.pop()], radius):
+            if not seen[j]:
+                seen[j] = True
+                todo.append(j)
+    return seen
+
+
+def _plainMainCrack(x, origin, R):
+    """The breadth-first search over the occupied cells of size R that _mainCrack replaced."""
+    cell = np.floor(x / R).astype(np.int64)
+    occupied = {tuple(c) for c in cell}
+    start = tuple(cell[np.argmin(np.sum((x - origin) ** 2, axis=1))])
+    reached, stack = {start}, [start]
+    offsets = list(np.ndindex(3, 3, 3))
+    while stack:
+        c = stack.pop()
+        for o in offsets:
+            n = (c[0] + o[0] - 1, c[1] + o[1] - 1, c[2] + o[2] - 1)
+            if n in occupied and n not in reached:
+                reached.add(n)
+                stack.append(n)
+    return np.array([tuple(c) in reached for c in cell])
+
+
+def _plainTips(x, times, now, window, origin, main, R2):
+    """The loop that tips() replaced: every main-crack point tested against each recent one."""
+    recent = main & (times >= now - window)
+    if not np.any(recent):
+        return []
+    xm, xr = x[main], x[recent]
+    r = np.sum((xm - origin) ** 2, axis=1)
+    rr = np.sum((xr - origin) ** 2, axis=1)
+    tips = []
+    for k in np.argsort(-rr):
+        p = xr[k]
+        near = np.sum((xm - p) ** 2, axis=1) <= R2
+        if np.any(r[near] > rr[k]):
+            continue
+        if all(np.sum((p - t) ** 2) > R2 for t in tips):
+            tips.append(p.copy())
+    return tips
+
+
+def _randomCrack(rng, dim, s, R):
+    """Eroded points on a lattice of spacing s: a branching band from (0, 0), each branch perhaps
+    continued after a gap of about R (the tip radius), stray clusters and scattered points, some
+    of them exactly a lattice step from the next (borderline distances)."""
+    pts = []
+    for d in ([1.0, 0.0], [0.8, 0.6], [0.8, -0.6])[: rng.integers(1, 4)]:
+        n = int(rng.integers(20, 120))
+        steps = list(range(n))
+        if rng.uniform() < 0.6:  # a second piece beyond a gap of 0.85 R to 1.15 R
+            gap = int(round(rng.uniform(0.85, 1.15) * R / s))
+            steps += list(range(n - 1 + gap, n - 1 + gap + int(rng.integers(1, 10))))
+        for i in steps:
+            for w in range(rng.integers(1, 4)):
+                pts.append([i * s * d[0] + w * s * d[1], i * s * d[1] - w * s * d[0], 0.0])
+    for _ in range(rng.integers(0, 4)):  # stray clusters
+        c = rng.uniform(-60 * s, 60 * s, 3)
+        pts += [list(c + s * np.array([i, j, 0])) for i in range(3) for j in range(3)]
+    x = np.array(pts)
+    if dim == 3:  # layers through a thickness
+        x = np.concatenate([x + [0, 0, k * s] for k in range(rng.integers(1, 9))])
+        x = x[:, [0, 2, 1]]
+    else:
+        x[:, 2] = 0.0
+    x[:, :dim] += rng.normal(0.0, 0.05 * s, (len(x), dim)) * (rng.uniform(size=(len(x), 1)) < 0.5)
+    return x
+
+
+@pytest.mark.parametrize("dense", [True, False])
+@pytest.mark.parametrize("dim,axis", [(2, None), (3, None), (3, "y")])
+def test_crack_diagnostics_are_those_of_their_plain_forms(dim, axis, dense, monkeypatch):
+    """_mainCrack (connected components of the touching cells: labelled on a dense box of cells,
+    or, where that box would be large, joined by a k-d tree), tips() (k-d tree candidates) and
+    linked() (components of the pairs within a radius) give exactly what the plain searches they
+    replaced give, on 40 random cracks each (branches, strays, layers, borderline spacings)."""
+    monkeypatch.setattr(em.fracture, "_DENSE_CELLS", 8.0 if dense else 0.0)
+    rng = np.random.default_rng(7 + dim)
+    s = 0.25e-3
+    kappa = 2.2 * s
+    R = 6.0 * kappa
+    for trial in range(40):
+        x = _randomCrack(rng, dim, s, R)
+        now = 1e-6
+        times = now - rng.uniform(0.0, 2e-7, len(x)) * (rng.uniform(size=len(x)) < 0.3) - 1e-6 * (
+            rng.uniform(size=len(x)) >= 0.3)
+        fake = _Eroded(x, kappa, now)
+        fake.events = lambda t=times: [(i, 1, float(ti)) for i, ti in enumerate(t)]
+        er = em.EigenErosion(Gc=1.0, kappa=kappa, throughAxis=axis, tipWindow=3e-7,
+                             origin=(0.0, 0.0, 0.0))
+        er.core, er._mpm = fake, fake
+        xp = er._inPlane(x)
+        origin = np.zeros(3)
+        main = er._mainCrack(xp, origin)
+        assert np.array_equal(main, _plainMainCrack(xp, origin, R)), trial
+        tips = er.tips()
+        plain = _plainTips(xp, times, now, 3e-7, origin, main, R ** 2)
+        assert len(tips) == len(plain) and all(np.array_equal(a, b) for a, b in zip(tips, plain)), trial
+        assert er.frontDistance() == float(np.sqrt(np.max(np.sum((xp[main] - origin) ** 2, axis=1))))
+        for radius in (s, 2 * kappa):  # s: the lattice neighbours exactly at the radius
+            seed = int(rng.integers(len(x)))
+            assert np.array_equal(em.fracture.linked(xp[:, :dim], seed, radius),
+                                  _plainLinked(xp[:, :dim], seed, radius)), trial
