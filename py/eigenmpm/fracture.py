@@ -260,10 +260,9 @@ class EigenErosion(PyRunner):
         i, j = near["i"].astype(np.int64), near["j"].astype(np.int64)
         within = np.sum((xm[j] - xr[i]) ** 2, axis=1) <= R2
         farther = np.bincount(i[within & (r[j] > rr[i])], minlength=len(xr)) > 0
+        order = np.argsort(-rr)
         tips = []
-        for k in np.argsort(-rr):
-            if farther[k]:
-                continue
+        for k in order[~farther[order]]:
             p = xr[k]
             if all(np.sum((p - t) ** 2) > R2 for t in tips):
                 tips.append(p.copy())
