@@ -2,7 +2,9 @@
 # Builds (if needed) and runs the step-throughput benchmark (bench/bench_block.cpp), printing the
 # machine first, then the fracture-overhead benchmark (bench/bench_fracture.cpp; its arguments
 # in FRACTURE_ARGS, e.g. FRACTURE_ARGS=--quick) and, where yade is installed, the YADE-path overhead
-# benchmark (bench/bench_yade_overhead.py; arguments in YADE_ARGS, e.g. YADE_ARGS='--rounds 4').
+# benchmark (bench/bench_yade_overhead.py; arguments in YADE_ARGS, e.g. YADE_ARGS='--rounds 4')
+# and the crack diagnostics' share (bench/bench_crack_records.py; arguments in RECORDS_ARGS,
+# default the quick branching plate: RECORDS_ARGS='--h-mm 1 --dt-us 0.04 --end-us 40').
 # `make bench` calls this. Arguments are passed
 # to bench_block, e.g.
 #   bash bench/run.sh --quick
@@ -44,6 +46,11 @@ if command -v yade > /dev/null; then
   # shellcheck disable=SC2086
   PYTHONPATH="$BUILD/python${PYTHONPATH:+:$PYTHONPATH}" yade -n -j 1 -x bench/bench_yade_overhead.py ${YADE_ARGS:-} \
     < /dev/null 2>&1 | grep -E '^ *[0-9]+ points|^JSON|rror'
+  records=${RECORDS_ARGS:---h-mm 1 --dt-us 0.04 --end-us 40}
+  echo "== bench_crack_records $records"
+  # shellcheck disable=SC2086
+  PYTHONPATH="$BUILD/python${PYTHONPATH:+:$PYTHONPATH}" yade -n -j 1 -x bench/bench_crack_records.py $records \
+    < /dev/null 2>&1 | grep -E '^\{|^median|rror'
 else
-  echo "== bench_yade_overhead skipped (no yade)"
+  echo "== bench_yade_overhead and bench_crack_records skipped (no yade)"
 fi
