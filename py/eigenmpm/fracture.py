@@ -229,14 +229,17 @@ class EigenErosion(PyRunner):
 
     def _crack(self, mpm):
         """What the crack diagnostics of one moment share: (events, the eroded points' positions
-        (projected with throughAxis), the origin, which of them form the main crack), or None
-        before the first erosion. Under mpiexec every rank must call it."""
+        (projected with throughAxis), the origin, which of them form the main crack, their
+        positions unprojected), or None before the first erosion. Under mpiexec only the eroded
+        points' positions travel between the ranks (parallel.positionsOf), not every point's,
+        and every rank must call it."""
         events = self.core.events() if self.core else []
         if not events:
             return None
-        x = self._erodedPositions(mpm, events)
+        raw = parallel.positionsOf(mpm, np.array([p for p, _, _ in events], dtype=np.int64))
+        x = self._inPlane(raw)
         origin = self._originPoint(x)
-        return events, x, origin, self._mainCrack(x, origin)
+        return events, x, origin, self._mainCrack(x, origin), raw
 
     def _tipsOf(self, mpm, crack):
         """tips() from a _crack() state. A k-d tree over the main crack's points proposes each
@@ -246,7 +249,7 @@ class EigenErosion(PyRunner):
         if crack is None:
             return []
         from scipy.spatial import cKDTree
-        events, x, origin, main = crack
+        events, x, origin, main, _ = crack
         window = self.tipWindow if self.tipWindow else 50 * O.dt
         recent = main & (np.array([t for _, _, t in events]) >= mpm.solver.time - window)
         if not np.any(recent):
@@ -267,13 +270,6 @@ class EigenErosion(PyRunner):
             if all(np.sum((p - t) ** 2) > R2 for t in tips):
                 tips.append(p.copy())
         return tips
-
-    def _erodedPositions(self, mpm, events):
-        """Where the eroded points are now, in the order of the events; with throughAxis, projected
-        on the plane normal to it. Under mpiexec only these points' positions travel between the
-        ranks (parallel.positionsOf), not every point's."""
-        x = parallel.positionsOf(mpm, np.array([p for p, _, _ in events], dtype=np.int64))
-        return self._inPlane(x)
 
     def _inPlane(self, x):
         """x (one row per point) projected on the plane normal to throughAxis (unchanged without)."""
@@ -299,7 +295,7 @@ class EigenErosion(PyRunner):
     def _frontOf(crack):
         if crack is None:
             return 0.0
-        _, x, origin, main = crack
+        _, x, origin, main, _ = crack
         return float(np.sqrt(np.max(np.sum((x[main] - origin) ** 2, axis=1))))
 
     def frontProfile(self, mpm=None):
@@ -312,13 +308,10 @@ class EigenErosion(PyRunner):
         if self.throughAxis is None:
             raise ValueError(f"EigenMPM: frontProfile needs throughAxis; EigenErosion {self.label!r} has "
                              "throughAxis = None; allowed: 'x', 'y' or 'z' (3D)")
-        events = self.core.events() if self.core else []
-        if not events:
+        crack = self._crack(mpm)
+        if crack is None:
             return np.array([]), np.array([])
-        raw = parallel.positionsOf(mpm, np.array([p for p, _, _ in events], dtype=np.int64))
-        x = self._inPlane(raw)
-        origin = self._originPoint(x)
-        main = self._mainCrack(x, origin)
+        _, x, origin, main, raw = crack
         along = raw[main, "xyz".index(self.throughAxis)]
         r = np.sqrt(np.sum((x[main] - origin) ** 2, axis=1))
         layer = np.rint((along - along.min()) / (mpm.h / mpm.ppc)).astype(np.int64)
