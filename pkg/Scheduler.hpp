@@ -5,6 +5,13 @@
 // copies. The order of the contributions to every node is then fixed whatever the thread
 // count: results are bitwise independent of it. This is also the seam where a distributed run
 // decides which points and nodes a process owns.
+//
+// Which worker runs which strip does not change the results, only the speed: each worker takes a
+// contiguous range of strips (balanced by points at every binning) in both colours, and the
+// nodal loops give each worker the node rows of its strips, so that a worker keeps finding the
+// nodes and the stencils it touched in the pass before in its own core's cache. (With the strips
+// dealt out one at a time, two threads ran the 2D step at 1e5 points about 1.6 times as fast as
+// one instead of 1.8: the grid's cache lines moved between the cores at every pass.)
 #pragma once
 #include <algorithm>
 #include <climits>
@@ -21,8 +28,6 @@ public:
     /// Cells per strip: strips two apart never share a node (needs stripWidth >= S - 1).
     static constexpr int stripWidth = 4;
 
-    /// Bins the points at x by strip, for the kernel K. Returns the id of the first point whose
-    /// support leaves the grid (binned nowhere), or -1 when all are on it.
     /// The number of strips of a grid, for the kernel K.
     template <class K> static int numStrips(const Grid<D>& g) { return (g.n[D - 1] - K::S) / stripWidth + 1; }
     /// The strip of a point at x, for the kernel K, or -1 when its support leaves the grid.
@@ -36,6 +41,9 @@ public:
         return b / stripWidth;
     }
 
+    /// Bins the points at x by strip, for the kernel K, and splits the strips between nThreads
+    /// workers. Returns the id of the first point whose support leaves the grid (binned
+    /// nowhere), or -1 when all are on it.
     template <class K> int bin(const std::vector<Vec<D>>& x, const Grid<D>& g, int nThreads)
     {
         static_assert(stripWidth >= K::S - 1, "strips of one colour would share nodes");
@@ -64,8 +72,13 @@ public:
         order_.resize(np);
         stripFill_.assign(stripStart_.begin(), stripStart_.end() - 1);
         for (int p = 0; p < np; ++p) order_[stripFill_[stripOf_[p]]++] = p;
+        splitStrips(nThreads);
         return -1;
     }
+
+    /// Worker t's strips are [split()[t], split()[t + 1]): contiguous, each range holding about
+    /// an equal share of the points (to a strip), set by the last bin.
+    const std::vector<int>& split() const { return split_; }
 
     /// Point ids in binned order: slot k holds point order()[k].
     const std::vector<int>& order() const { return order_; }
@@ -98,10 +111,14 @@ public:
     /// of strips one after the other, the strips of a colour on the workers.
     template <class F> void scatterStrips(int nThreads, F&& f, const std::function<void()>& between = {}) const
     {
-        const int numStrips = static_cast<int>(stripStart_.size()) - 1;
+        // Worker t runs the strips of split_'s range t (iteration t of a static schedule of
+        // chunk 1 goes to thread t); with fewer threads than ranges a thread runs several.
+        const int nRanges = static_cast<int>(split_.size()) - 1;
         for (int colour = 0; colour < 2; ++colour) {
-#pragma omp parallel for schedule(dynamic, 1) num_threads(nThreads)
-            for (int s = colour; s < numStrips; s += 2) f(stripStart_[s], stripStart_[s + 1]);
+#pragma omp parallel for schedule(static, 1) num_threads(nThreads)
+            for (int t = 0; t < nRanges; ++t)
+                for (int s = split_[t] + ((split_[t] & 1) != colour); s < split_[t + 1]; s += 2)
+                    f(stripStart_[s], stripStart_[s + 1]);
             if (colour == 0 && between) between();
         }
     }
@@ -127,13 +144,20 @@ public:
         return total;
     }
 
-    /// Calls f(I) for every node index I in [0, n) (nodal loops: each node writes itself).
-    template <class F> static void forEachNode(int n, int nThreads, F&& f)
+    /// Calls f(I) for every node of the rows [rowLo, rowHi) along the last axis (rowSize nodes
+    /// each; nodal loops, each node writes itself), worker t the rows of its strips.
+    template <class F> void forEachNodeOfRows(int rowLo, int rowHi, int rowSize, int nThreads, F&& f) const
     {
-#pragma omp parallel for schedule(static) num_threads(nThreads)
-        for (int I = 0; I < n; ++I) f(I);
+        const int nRanges = static_cast<int>(split_.size()) - 1;
+        if (nRanges < 1) return forEachNodeIn(rowLo * rowSize, rowHi * rowSize, nThreads, f);
+#pragma omp parallel for schedule(static, 1) num_threads(nThreads)
+        for (int t = 0; t < nRanges; ++t) {
+            const int lo = t == 0 ? rowLo : std::clamp(split_[t] * stripWidth, rowLo, rowHi);
+            const int hi = t == nRanges - 1 ? rowHi : std::clamp(split_[t + 1] * stripWidth, rowLo, rowHi);
+            for (int I = lo * rowSize; I < hi * rowSize; ++I) f(I);
+        }
     }
-    /// forEachNode over the nodes [lo, hi) only (a distributed run's planes).
+    /// Calls f(I) for every node index I in [lo, hi), statically split between the workers.
     template <class F> static void forEachNodeIn(int lo, int hi, int nThreads, F&& f)
     {
 #pragma omp parallel for schedule(static) num_threads(nThreads)
@@ -141,7 +165,22 @@ public:
     }
 
 private:
-    std::vector<int> order_, stripStart_, stripOf_, stripFill_;
+    void splitStrips(int nThreads)
+    {
+        const int numStrips = static_cast<int>(stripStart_.size()) - 1;
+        const long long np = stripStart_.back();
+        split_.assign(nThreads + 1, numStrips);
+        split_[0] = 0;
+        for (int t = 1; t < nThreads; ++t) {
+            // The strip boundary nearest to an equal share of t / nThreads of the points.
+            const long long share = np * t / nThreads;
+            int b = static_cast<int>(std::lower_bound(stripStart_.begin(), stripStart_.end(), share) - stripStart_.begin());
+            if (b > 0 && share - stripStart_[b - 1] < stripStart_[std::min(b, numStrips)] - share) --b;
+            split_[t] = std::clamp(b, split_[t - 1], numStrips);
+        }
+    }
+
+    std::vector<int> order_, stripStart_, stripOf_, stripFill_, split_;
 };
 
 }  // namespace emp

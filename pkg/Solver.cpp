@@ -76,13 +76,11 @@ template <int D, class K> void Solver<D, K>::checkTimeStep(double dt)
 
 template <int D, class K> template <class F> void Solver<D, K>::forEachWorkNode(int nThreads, F&& f)
 {
-    if (!dist_) {
-        Scheduler<D>::forEachNode(grid_.totalNodes(), nThreads, f);
-        return;
-    }
-    const int stride = grid_.stride[D - 1];
-    Scheduler<D>::forEachNodeIn(dist_->planeLo() * stride, dist_->planeHi() * stride, nThreads, f);
-    Scheduler<D>::forEachNodeIn(grid_.numNodes(), grid_.totalNodes(), nThreads, f);  // the cracks' twins
+    // A distributed run's own planes, or all of them; each worker the rows of its strips.
+    const int lo = dist_ ? dist_->planeLo() : 0, hi = dist_ ? dist_->planeHi() : grid_.n[D - 1];
+    schedule_.forEachNodeOfRows(lo, hi, grid_.stride[D - 1], nThreads, f);
+    if (grid_.totalNodes() > grid_.numNodes())  // the cracks' twins
+        Scheduler<D>::forEachNodeIn(grid_.numNodes(), grid_.totalNodes(), nThreads, f);
 }
 
 template <int D, class K> template <class F> void Solver<D, K>::forEachTractionPoint(std::size_t t, F&& f) const

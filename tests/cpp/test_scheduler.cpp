@@ -1,0 +1,131 @@
+// The scheduler's split of the work between threads: which worker runs which strip and which
+// node rows may change the speed only. Every strip runs once, in slot order, all strips of
+// colour 0 before any of colour 1; every node of a nodal loop is visited once; the workers'
+// ranges are contiguous and balanced by points to a strip.
+#include <omp.h>
+
+#include <atomic>
+#include <mutex>
+
+#include "test_helpers.hpp"
+
+namespace {
+
+using emp::GimpKernel;
+using emp::Grid;
+using emp::Scheduler;
+using emptest::Vec;
+
+constexpr int D = 2;
+using K = GimpKernel;
+
+/// A 2D grid 10 cells wide and 60 tall, with points in strips of very different counts.
+struct Scene {
+    Grid<D> g;
+    std::vector<Vec<D>> x;
+    std::vector<int> perStrip;  // points per strip, from Scheduler::stripOf
+    Scene()
+    {
+        g.resize(Vec<D>::Zero(), 1.0, std::array<int, D>{12, 62});
+        const int numStrips = Scheduler<D>::numStrips<K>(g);
+        perStrip.assign(numStrips, 0);
+        const int counts[] = {0, 40, 3, 3, 90, 0, 0, 25, 1, 60, 7, 0, 0, 0, 30};
+        std::mt19937 rng(5);
+        std::uniform_real_distribution<double> u(0.0, 1.0);
+        for (int s = 0; s < numStrips && s < 15; ++s)
+            for (int i = 0; i < counts[s]; ++i) {
+                // A place inside strip s (cells 4s + 1 .. 4s + 4 hold the bases 4s .. 4s + 3).
+                const Vec<D> p(1.5 + 8.0 * u(rng), 4.0 * s + 1.0 + 3.4 * u(rng));
+                x.push_back(p);
+            }
+        std::shuffle(x.begin(), x.end(), rng);
+        for (const auto& p : x) ++perStrip[Scheduler<D>::stripOf<K>(p, g)];
+    }
+};
+
+TEST(Scheduler, SplitGivesEachWorkerContiguousStripsOfAboutAnEqualShareOfPoints)
+{
+    Scene sc;
+    const int numStrips = static_cast<int>(sc.perStrip.size());
+    std::vector<int> before(numStrips + 1, 0);  // points in the strips before each boundary
+    for (int s = 0; s < numStrips; ++s) before[s + 1] = before[s] + sc.perStrip[s];
+    const int np = before.back();
+    ASSERT_EQ(np, static_cast<int>(sc.x.size()));
+    for (int T = 1; T <= 6; ++T) {
+        Scheduler<D> sch;
+        ASSERT_EQ(sch.bin<K>(sc.x, sc.g, T), -1);
+        const auto& split = sch.split();
+        ASSERT_EQ(static_cast<int>(split.size()), T + 1);
+        EXPECT_EQ(split.front(), 0);
+        EXPECT_EQ(split.back(), numStrips);
+        for (int t = 1; t <= T; ++t) {
+            EXPECT_LE(split[t - 1], split[t]) << "T = " << T;
+            if (t == T) break;
+            // Boundary t is the strip boundary nearest to t/T of the points (or the one before
+            // it, when that is nearer to no worse).
+            const double share = static_cast<double>(np) * t / T;
+            double best = 1e300;
+            for (int b = split[t - 1]; b <= numStrips; ++b) best = std::min(best, std::abs(before[b] - share));
+            EXPECT_LE(std::abs(before[split[t]] - share), best + 1.0) << "T = " << T << ", t = " << t;
+        }
+    }
+}
+
+TEST(Scheduler, ScatterRunsEveryStripOnceInSlotOrderColourZeroFirst)
+{
+    Scene sc;
+    for (int binThreads : {1, 2, 3, 5})
+        for (int threads : {1, 2, 3}) {
+            Scheduler<D> sch;
+            ASSERT_EQ(sch.bin<K>(sc.x, sc.g, binThreads), -1);
+            const auto& order = sch.order();
+            std::vector<int> visits(order.size(), 0), next(sc.perStrip.size(), -1);
+            std::atomic<bool> between{false}, wrong{false};
+            std::mutex m;
+            sch.scatter(threads, [&](int k) {
+                const int s = Scheduler<D>::stripOf<K>(sc.x[order[k]], sc.g);
+                std::lock_guard<std::mutex> lock(m);
+                ++visits[k];
+                if ((s % 2 == 1) != between.load()) wrong = true;  // colour 1 before the hook, or 0 after
+                if (next[s] >= 0 && k != next[s]) wrong = true;  // a strip's slots in order
+                next[s] = k + 1;
+            }, [&] { between = true; });
+            EXPECT_FALSE(wrong.load()) << binThreads << " workers binned, " << threads << " threads";
+            for (std::size_t k = 0; k < visits.size(); ++k) ASSERT_EQ(visits[k], 1) << "slot " << k;
+        }
+}
+
+TEST(Scheduler, NodalLoopsVisitEveryNodeOfTheirRowsOnce)
+{
+    Scene sc;
+    const int rows = sc.g.n[D - 1], rowSize = sc.g.stride[D - 1];
+    for (int binThreads : {0, 1, 2, 4})  // 0: not binned yet
+        for (int threads : {1, 2, 3})
+            for (auto [lo, hi] : {std::pair{0, rows}, std::pair{9, 30}, std::pair{33, 34}, std::pair{5, 5}}) {
+                Scheduler<D> sch;
+                if (binThreads) ASSERT_EQ(sch.bin<K>(sc.x, sc.g, binThreads), -1);
+                std::vector<std::atomic<int>> visits(sc.g.numNodes());
+                for (auto& v : visits) v = 0;
+                std::vector<int> worker(sc.g.numNodes(), -1);
+                sch.forEachNodeOfRows(lo, hi, rowSize, threads, [&](int I) {
+                    ++visits[I];
+                    worker[I] = omp_get_thread_num();
+                });
+                for (int I = 0; I < sc.g.numNodes(); ++I) {
+                    const int row = I / rowSize;
+                    ASSERT_EQ(visits[I].load(), row >= lo && row < hi ? 1 : 0)
+                        << "node " << I << ", rows " << lo << ".." << hi << ", " << binThreads << "/" << threads;
+                }
+                // With as many threads as workers, worker t takes the rows of its strips.
+                if (binThreads == threads && threads > 1 && lo == 0 && hi == rows)
+                    for (int I = 0; I < sc.g.numNodes(); ++I) {
+                        const int row = I / rowSize, strip = std::min(row / Scheduler<D>::stripWidth,
+                                                                      static_cast<int>(sc.perStrip.size()) - 1);
+                        int t = 0;
+                        while (t + 1 < threads && sch.split()[t + 1] <= strip) ++t;
+                        ASSERT_EQ(worker[I], t) << "node " << I;
+                    }
+            }
+}
+
+}  // namespace
