@@ -51,27 +51,49 @@ public:
         const int numStrips = (g.n[last] - K::S) / stripWidth + 1;
         const int np = static_cast<int>(x.size());
         stripOf_.resize(np);
+        // A stable counting sort in chunks of points: each chunk counts its points per strip,
+        // and fills its slots after those of the chunks before it in each strip. The order is
+        // that of a serial stable sort (by strip, then id) whatever the chunks.
+        const int nChunks = std::max(1, std::min(nThreads, np / minChunk));
+        const auto chunkBegin = [&](int c) { return static_cast<int>(static_cast<long long>(np) * c / nChunks); };
+        chunkFill_.assign(static_cast<std::size_t>(nChunks) * numStrips, 0);
         int firstOffGrid = INT_MAX;
-#pragma omp parallel for schedule(static) num_threads(nThreads) reduction(min : firstOffGrid)
-        for (int p = 0; p < np; ++p) {
-            int b = 0;
-            for (int d = 0; d < D; ++d) {
-                b = K::base((x[p][d] - g.origin[d]) * g.invh);
-                if (!(b >= 0 && b <= g.n[d] - K::S)) {
-                    firstOffGrid = std::min(firstOffGrid, p);
-                    b = 0;
-                    break;
+#pragma omp parallel for schedule(static, 1) num_threads(nThreads) reduction(min : firstOffGrid)
+        for (int c = 0; c < nChunks; ++c) {
+            int* count = &chunkFill_[static_cast<std::size_t>(c) * numStrips];
+            for (int p = chunkBegin(c); p < chunkBegin(c + 1); ++p) {
+                int b = 0;
+                for (int d = 0; d < D; ++d) {
+                    b = K::base((x[p][d] - g.origin[d]) * g.invh);
+                    if (!(b >= 0 && b <= g.n[d] - K::S)) {
+                        firstOffGrid = std::min(firstOffGrid, p);
+                        b = 0;
+                        break;
+                    }
                 }
+                stripOf_[p] = b / stripWidth;  // b is now the base node along the last axis
+                ++count[stripOf_[p]];
             }
-            stripOf_[p] = b / stripWidth;  // b is now the base node along the last axis
         }
         if (firstOffGrid != INT_MAX) return firstOffGrid;
+        // Strip starts, and each chunk's first slot in each strip.
         stripStart_.assign(numStrips + 1, 0);
-        for (int p = 0; p < np; ++p) ++stripStart_[stripOf_[p] + 1];
-        for (int s = 0; s < numStrips; ++s) stripStart_[s + 1] += stripStart_[s];
+        for (int s = 0; s < numStrips; ++s) {
+            int next = stripStart_[s];
+            for (int c = 0; c < nChunks; ++c) {
+                int& fill = chunkFill_[static_cast<std::size_t>(c) * numStrips + s];
+                const int count = fill;
+                fill = next;
+                next += count;
+            }
+            stripStart_[s + 1] = next;
+        }
         order_.resize(np);
-        stripFill_.assign(stripStart_.begin(), stripStart_.end() - 1);
-        for (int p = 0; p < np; ++p) order_[stripFill_[stripOf_[p]]++] = p;
+#pragma omp parallel for schedule(static, 1) num_threads(nThreads)
+        for (int c = 0; c < nChunks; ++c) {
+            int* fill = &chunkFill_[static_cast<std::size_t>(c) * numStrips];
+            for (int p = chunkBegin(c); p < chunkBegin(c + 1); ++p) order_[fill[stripOf_[p]]++] = p;
+        }
         splitStrips(nThreads);
         return -1;
     }
@@ -180,7 +202,9 @@ private:
         }
     }
 
-    std::vector<int> order_, stripStart_, stripOf_, stripFill_, split_;
+        /// Points per chunk of bin's counting sort at least (fewer points: one chunk, serial).
+    static constexpr int minChunk = 4096;
+    std::vector<int> order_, stripStart_, stripOf_, chunkFill_, split_;
 };
 
 }  // namespace emp

@@ -6,6 +6,7 @@
 
 #include <atomic>
 #include <mutex>
+#include <numeric>
 
 #include "test_helpers.hpp"
 
@@ -69,6 +70,35 @@ TEST(Scheduler, SplitGivesEachWorkerContiguousStripsOfAboutAnEqualShareOfPoints)
             EXPECT_LE(std::abs(before[split[t]] - share), best + 1.0) << "T = " << T << ", t = " << t;
         }
     }
+}
+
+TEST(Scheduler, BinningInChunksIsTheStableSortByStrip)
+{
+    // Enough points for several chunks of the counting sort: the order is that of a stable
+    // sort of the ids by strip, for any number of workers.
+    Grid<D> g;
+    g.resize(Vec<D>::Zero(), 1.0, std::array<int, D>{40, 90});
+    std::mt19937 rng(17);
+    std::uniform_real_distribution<double> ux(1.0, 38.4), u(0.0, 1.0);
+    std::vector<Vec<D>> x(30011);
+    for (auto& p : x) {
+        const double v = u(rng);
+        p = Vec<D>(ux(rng), 1.0 + 86.0 * v * v);  // denser at the bottom
+    }
+    std::vector<int> expected(x.size());
+    std::iota(expected.begin(), expected.end(), 0);
+    std::stable_sort(expected.begin(), expected.end(), [&](int a, int b) {
+        return Scheduler<D>::stripOf<K>(x[a], g) < Scheduler<D>::stripOf<K>(x[b], g);
+    });
+    for (int T : {1, 2, 3, 7}) {
+        Scheduler<D> sch;
+        ASSERT_EQ(sch.bin<K>(x, g, T), -1);
+        EXPECT_EQ(sch.order(), expected) << T << " workers";
+    }
+    // A point off the grid is reported, the first one whatever the chunks.
+    x[20000] = Vec<D>(-5.0, 3.0);
+    x[29000] = Vec<D>(3.0, 1e3);
+    for (int T : {1, 2, 3, 7}) EXPECT_EQ(Scheduler<D>().bin<K>(x, g, T), 20000) << T << " workers";
 }
 
 TEST(Scheduler, ScatterRunsEveryStripOnceInSlotOrderColourZeroFirst)
