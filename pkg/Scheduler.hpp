@@ -130,7 +130,7 @@ public:
     }
 
     /// The strips of scatter: calls f(begin, end) with the slot range of every strip, two colours
-    /// of strips one after the other, the strips of a colour on the workers.
+    /// of strips one after the other, each worker the strips of its range (split()).
     template <class F> void scatterStrips(int nThreads, F&& f, const std::function<void()>& between = {}) const
     {
         // Worker t runs the strips of split_'s range t (iteration t of a static schedule of
@@ -197,12 +197,12 @@ private:
             // The strip boundary nearest to an equal share of t / nThreads of the points.
             const long long share = np * t / nThreads;
             int b = static_cast<int>(std::lower_bound(stripStart_.begin(), stripStart_.end(), share) - stripStart_.begin());
-            if (b > 0 && share - stripStart_[b - 1] < stripStart_[std::min(b, numStrips)] - share) --b;
+            if (b > 0 && share - stripStart_[b - 1] < stripStart_[b] - share) --b;
             split_[t] = std::clamp(b, split_[t - 1], numStrips);
         }
     }
 
-        /// Points per chunk of bin's counting sort at least (fewer points: one chunk, serial).
+    /// Points per chunk of bin's counting sort at least (fewer points: one chunk, serial).
     static constexpr int minChunk = 4096;
     std::vector<int> order_, stripStart_, stripOf_, chunkFill_, split_;
 };
