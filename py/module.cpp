@@ -458,6 +458,20 @@ template <class Sv> struct Bind {
         return a;
     }
     static np::ndarray positions(const Sv& s) { return vectors(s, [&](long p) { return s.points().x[p]; }); }
+    /// Positions of this process's points with the given indices, one row each: the crack
+    /// diagnostics read the eroded points without copying every point's position.
+    static np::ndarray positionsAt(const Sv& s, bp::object indices)
+    {
+        const std::vector<int> ids = toIntList(indices);
+        const long n = s.points().size();
+        np::ndarray a = zeros(static_cast<long>(ids.size()), 3);
+        double* out = reinterpret_cast<double*>(a.get_data());
+        for (std::size_t k = 0; k < ids.size(); ++k) {
+            require(ids[k] >= 0 && ids[k] < n, "point index", ids[k], "0 <= index < " + std::to_string(n));
+            for (int d = 0; d < D; ++d) out[3 * k + d] = s.points().x[ids[k]][d];
+        }
+        return a;
+    }
     static np::ndarray velocities(const Sv& s) { return vectors(s, [&](long p) { return s.points().v[p]; }); }
 
     /// 3x3 tensors; in 2D the out-of-plane component follows the material's plane condition:
@@ -703,6 +717,7 @@ template <class Sv> struct Bind {
             .def("kineticEnergy", &Sv::kineticEnergy)
             .def("elasticEnergy", &Sv::elasticEnergy)
             .def("positions", &positions)
+            .def("positionsAt", &positionsAt, (bp::arg("indices")))
             .def("velocities", &velocities)
             .def("setVelocities", &setVelocities)
             .def("stress", &stress)

@@ -65,26 +65,32 @@ def positionsOf(engine, ids):
     """Positions (one row each) of the points of `engine` whose ids in the one-process scene
     are `ids`, in that order, on every rank; every rank must call it. Under mpiexec only these
     points' positions are sent (each rank finds its own among them), not every rank's points
-    as with ``gather``: the crack diagnostics read the eroded points this way."""
-    return valuesOf(engine, ids, engine.solver.positions())
+    as with ``gather``, and no rank copies its other points' positions (solver.positionsAt):
+    the crack diagnostics read the eroded points this way."""
+    return _rowsOf(engine, ids, lambda k: engine.solver.positionsAt(k.tolist()))
 
 
 def valuesOf(engine, ids, values):
     """The rows of `values` (a per-point array of this rank's points of `engine`, in the order of
     solver.positions()) of the points whose ids in the one-process scene are `ids`, in that
     order, on every rank; every rank must call it. Only these rows travel between the ranks."""
+    values = np.asarray(values)
+    return _rowsOf(engine, ids, lambda k: values[k].reshape((-1,) + values.shape[1:]))
+
+
+def _rowsOf(engine, ids, rows):
+    """valuesOf with rows(k): the rows of this rank's points at the indices k."""
     ids = np.asarray(ids, dtype=np.int64)
     solver = engine.solver
-    values = np.asarray(values)
     if solver.ranks == 1:
-        return values[ids]
+        return rows(ids)
     mine = np.asarray(solver.globalIds(), dtype=np.int64)  # sorted
     k = np.minimum(np.searchsorted(mine, ids), max(len(mine) - 1, 0))
     here = (mine[k] == ids) if len(mine) else np.zeros(len(ids), dtype=bool)
     from mpi4py import MPI
     comm = MPI.COMM_WORLD
     found = np.concatenate(comm.allgather(ids[here]))
-    where = np.concatenate(comm.allgather(values[k[here]].reshape((-1,) + values.shape[1:])))
+    where = np.concatenate(comm.allgather(rows(k[here])))
     order = np.argsort(found)
     at = order[np.searchsorted(found[order], ids)]
     if not np.array_equal(found[at], ids):

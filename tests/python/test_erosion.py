@@ -100,6 +100,19 @@ def test_eroded_set_grows_only_and_is_identical_on_1_and_2_threads():
     assert np.array_equal(runs[0][1], runs[1][1])
 
 
+def test_positions_of_a_few_points_are_their_rows_of_all_positions():
+    """parallel.positionsOf (the crack diagnostics' read of the eroded points) reads only the
+    given points (solver.positionsAt), the same rows as all positions; a bad index is named."""
+    O.reset()
+    mpm, _ = stretched_bar(1.0)
+    O.run(3, True)
+    ids = np.array([5, 0, 17, 5, len(mpm.solver.positions()) - 1], dtype=np.int64)
+    assert np.array_equal(em.parallel.positionsOf(mpm, ids), mpm.solver.positions()[ids])
+    assert em.parallel.positionsOf(mpm, np.array([], dtype=np.int64)).shape == (0, 3)
+    with pytest.raises(Exception, match="point index"):
+        mpm.solver.positionsAt([len(mpm.solver.positions())])
+
+
 @pytest.mark.parametrize("dim", [2, 3])
 def test_neighbour_search_equals_brute_force(dim):
     rng = np.random.default_rng(7)
@@ -305,6 +318,9 @@ class _Eroded:
 
     def positions(self):
         return self.x
+
+    def positionsAt(self, indices):
+        return self.x[np.asarray(indices, dtype=np.int64)].reshape(-1, 3)
 
     def events(self):
         return [(i, 1, self.now) for i in range(len(self.x))]
