@@ -458,17 +458,22 @@ template <class Sv> struct Bind {
         return a;
     }
     static np::ndarray positions(const Sv& s) { return vectors(s, [&](long p) { return s.points().x[p]; }); }
-    /// Positions of this process's points with the given indices, one row each: the crack
-    /// diagnostics read the eroded points without copying every point's position.
-    static np::ndarray positionsAt(const Sv& s, bp::object indices)
+    /// Positions of this process's points with the given indices (a 1D int64 array), one row
+    /// each: the crack diagnostics read the eroded points without copying every point's position.
+    static np::ndarray positionsAt(const Sv& s, const np::ndarray& indices)
     {
-        const std::vector<int> ids = toIntList(indices);
-        const long n = s.points().size();
-        np::ndarray a = zeros(static_cast<long>(ids.size()), 3);
+        require(indices.get_dtype() == np::dtype::get_builtin<std::int64_t>(), "indices dtype",
+                bp::extract<std::string>(bp::str(indices.get_dtype()))(), "int64");
+        require(indices.get_nd() == 1, "indices dimensions", indices.get_nd(), "1");
+        const long m = indices.shape(0), n = s.points().size();
+        const char* base = indices.get_data();
+        const Py_intptr_t stride = indices.get_strides()[0];
+        np::ndarray a = zeros(m, 3);
         double* out = reinterpret_cast<double*>(a.get_data());
-        for (std::size_t k = 0; k < ids.size(); ++k) {
-            require(ids[k] >= 0 && ids[k] < n, "point index", ids[k], "0 <= index < " + std::to_string(n));
-            for (int d = 0; d < D; ++d) out[3 * k + d] = s.points().x[ids[k]][d];
+        for (long k = 0; k < m; ++k) {
+            const std::int64_t p = *reinterpret_cast<const std::int64_t*>(base + k * stride);
+            if (p < 0 || p >= n) require(false, "point index", p, "0 <= index < " + std::to_string(n));
+            for (int d = 0; d < D; ++d) out[3 * k + d] = s.points().x[p][d];
         }
         return a;
     }

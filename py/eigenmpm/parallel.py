@@ -67,7 +67,7 @@ def positionsOf(engine, ids):
     points' positions are sent (each rank finds its own among them), not every rank's points
     as with ``gather``, and no rank copies its other points' positions (solver.positionsAt):
     the crack diagnostics read the eroded points this way."""
-    return _rowsOf(engine, ids, lambda k: engine.solver.positionsAt(k.tolist()))
+    return _rowsOf(engine, ids, engine.solver.positionsAt)
 
 
 def valuesOf(engine, ids, values):

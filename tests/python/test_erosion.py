@@ -110,7 +110,9 @@ def test_positions_of_a_few_points_are_their_rows_of_all_positions():
     assert np.array_equal(em.parallel.positionsOf(mpm, ids), mpm.solver.positions()[ids])
     assert em.parallel.positionsOf(mpm, np.array([], dtype=np.int64)).shape == (0, 3)
     with pytest.raises(Exception, match="point index"):
-        mpm.solver.positionsAt([len(mpm.solver.positions())])
+        mpm.solver.positionsAt(np.array([len(mpm.solver.positions())], dtype=np.int64))
+    with pytest.raises(Exception, match="int64"):
+        mpm.solver.positionsAt(np.array([1.0, 2.0]))
 
 
 @pytest.mark.parametrize("dim", [2, 3])
