@@ -20,7 +20,8 @@ template <int D> struct MaterialPoints {
     std::vector<double> history;  ///< H = max psi+ over time (Eq 22)
     std::vector<double> damage;   ///< c: 1 intact, 0 eroded (g(c) = c)
     std::vector<std::int32_t> material;
-    /// APIC's affine velocity C_p (Kinematics.hpp); empty unless `affine` is on.
+    /// APIC's B_p = sum N v_I (x_I - x_p)^T (Kinematics.hpp; C_p = B_p D_p^-1), between steps;
+    /// within a step, from P2G to G2P, h C_p at the point's position. Empty unless `affine` is on.
     std::vector<Mat<D>> affineVelocity;
     /// Deformation gradient F of the co-rotational update (Kinematics.hpp); empty unless
     /// `deformation` is on. `strain` then holds the co-rotated strain U - I.
