@@ -25,8 +25,11 @@ namespace emp {
 
 template <int D> class Scheduler {
 public:
-    /// Cells per strip: strips two apart never share a node (needs stripWidth >= S - 1).
-    static constexpr int stripWidth = 4;
+    /// Cells per strip: strips two apart never share a node (needs stripWidth >= S - 1). The
+    /// narrowest that uGIMP allows: the finer the strips, the closer a contiguous split comes to
+    /// equal shares of the points (3D block of 97 336 points on two threads: 1.65x one thread
+    /// with strips of 4 cells, 1.87x with 2).
+    static constexpr int stripWidth = 2;
 
     /// The number of strips of a grid, for the kernel K.
     template <class K> static int numStrips(const Grid<D>& g) { return (g.n[D - 1] - K::S) / stripWidth + 1; }
@@ -46,7 +49,8 @@ public:
     /// nowhere), or -1 when all are on it.
     template <class K> int bin(const std::vector<Vec<D>>& x, const Grid<D>& g, int nThreads)
     {
-        static_assert(stripWidth >= K::S - 1, "strips of one colour would share nodes");
+        static_assert(stripWidth >= K::S - 1,
+                      "strips of one colour would share nodes: a kernel of support S needs stripWidth >= S - 1");
         constexpr int last = D - 1;
         const int numStrips = (g.n[last] - K::S) / stripWidth + 1;
         const int np = static_cast<int>(x.size());
