@@ -338,7 +338,8 @@ TYPED_TEST(KernelTest, GradientMatchesFiniteDifference3D) { checkGradientByFinit
 /// APIC's transfers (forEachAffine, affineSums) against their plain forms through forEach and
 /// forEachWithOffset: sum v_I grad N_I^T, M grad N_I node by node, a + M (x_I - x_p) node by
 /// node, sum N_I v_I and sum N_I v_I (x_I - x_p)^T, to round-off, on the regular lattice and on
-/// a support remapped to other node indices (twins).
+/// a support remapped to other node indices (twins); and the offsets in cells (cellOffsets)
+/// against the metric ones.
 template <class C> struct StencilSumsTest : ::testing::Test {};
 TYPED_TEST_SUITE(StencilSumsTest, emptest::AllSolvers);
 
@@ -386,6 +387,15 @@ TYPED_TEST(StencilSumsTest, FactoredSumsAreThePlainSumsToRoundOff)
         // forEachWithOffset: a + M dx node by node, sum N v and sum N v dx^T.
         double o[D][St::S];
         st.offsets(x, g, o);
+        // The offsets in cells (APIC's transfers) are the metric ones over h, and the moment
+        // diagonal from them is the metric one over h^2, to round-off.
+        double uc[D][St::S];
+        st.cellOffsets(x, g, uc);
+        for (int d = 0; d < D; ++d)
+            for (int j = 0; j < St::S; ++j)
+                EXPECT_NEAR(uc[d][j] * g.h, o[d][j], 1e-12 * g.h) << "x = " << x.transpose() << ", d " << d << ", node " << j;
+        EXPECT_LT((st.momentDiagonal(uc) * (g.h * g.h) - st.momentDiagonal(o)).cwiseAbs().maxCoeff(), 1e-13 * g.h * g.h)
+            << "x = " << x.transpose();
         const Vec<D> a0 = Vec<D>::Constant(u(rng));
         std::vector<Vec<D>> plainAffine;
         Vec<D> plainSum = Vec<D>::Zero();
