@@ -179,6 +179,14 @@ class RunEnd:
         return self
 
 
+def _sayLine(text):
+    """Prints one line in a single write, newline included: under mpiexec the ranks share one
+    output, and a line whose newline came in a second write could be split by another rank's
+    line (the tests read these lines back, rank by rank)."""
+    sys.stdout.write(text + "\n")
+    sys.stdout.flush()
+
+
 def _seconds(t):
     for unit, scale in (("us", 1e-6), ("ms", 1e-3)):
         if abs(t) < 1e3 * scale:
@@ -221,8 +229,8 @@ def runSteps(steps, poll=0.05):
     def onSignal(signum, frame):
         if not caught:
             where = f"rank {parallel.rank()}: " if together else ""
-            print(f"{where}{signal.Signals(signum).name}: stopping the run at the end of the current step"
-                  + (" (all ranks together)" if together else ""), flush=True)
+            _sayLine(f"{where}{signal.Signals(signum).name}: stopping the run at the end of the current step"
+                     + (" (all ranks together)" if together else ""))
         caught.append((signal.Signals(signum).name, time.time()))
         if together:
             parallel.requestStop(signum)
@@ -257,7 +265,7 @@ def runSteps(steps, poll=0.05):
     if stop:
         after = f", {time.time() - stop[1]:.3f} s after {stop[0]}" if stop[1] is not None else f" ({stop[0]} on another rank)"
         where = f"rank {parallel.rank()}: " if together else ""
-        print(f"{where}run stopped at iteration {O.iter}, t = {_seconds(O.time)}{after}", flush=True)
+        _sayLine(f"{where}run stopped at iteration {O.iter}, t = {_seconds(O.time)}{after}")
     if outcome.get("result") is not None:
         return RunEnd(outcome["result"], None, started)
     if stop:

@@ -296,7 +296,7 @@ def _stoppedTogether(out, log, name):
     """Both ranks of the run in `out` stopped at the same iteration after the signal `name`, the
     newest checkpoint is that iteration's with both ranks' parts, and the summary says so.
     Returns (iteration, the ranks' seconds from the signal to the stop)."""
-    found = re.findall(r"rank (\d): run stopped at iteration (\d+), t = .*, ([0-9.]+) s after " + name, log)
+    found = re.findall(r"rank (\d): run stopped at iteration (\d+), t = [^,]*, ([0-9.]+) s after " + name, log)
     assert sorted(r for r, _, _ in found) == ["0", "1"] and found[0][1] == found[1][1], log[-3000:]
     stop = int(found[0][1])
     newest = sorted((out / "checkpoints").iterdir())[-1]
