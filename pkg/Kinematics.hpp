@@ -170,7 +170,7 @@ EMP_ALWAYS_INLINE double cofactor3(const Plain3& m, int i, int j)
 /// det m as Eigen's determinant() computes it.
 EMP_ALWAYS_INLINE double determinant3(const Plain3& m)
 {
-    const auto h = [&](int a, int b, int c) { return m.a[0][a] * (m.a[1][b] * m.a[2][c] - m.a[1][c] * m.a[2][b]); };
+    const auto h = [&](int a, int b, int c) EMP_LAMBDA_INLINE { return m.a[0][a] * (m.a[1][b] * m.a[2][c] - m.a[1][c] * m.a[2][b]); };
     return h(0, 1, 2) - h(1, 0, 2) + h(2, 0, 1);
 }
 
@@ -181,7 +181,7 @@ template <bool transposed> EMP_ALWAYS_INLINE Plain3 inverse3(const Plain3& m)
     const double det = cofactor3(m, 0, 0) * m.a[0][0] + cofactor3(m, 1, 0) * m.a[1][0] + cofactor3(m, 2, 0) * m.a[2][0];
     const double inv = 1.0 / det;
     Plain3 r;
-    forEntries([&](auto k) {
+    forEntries([&](auto k) EMP_LAMBDA_INLINE {
         constexpr int i = k / 3, j = k % 3;
         r.a[i][j] = (transposed ? cofactor3(m, i, j) : cofactor3(m, j, i)) * inv;
     });
@@ -194,10 +194,10 @@ template <bool transposed> EMP_ALWAYS_INLINE Plain3 inverse3(const Plain3& m)
 template <bool transposeA = false, bool transposeB = false>
 EMP_ALWAYS_INLINE Plain3 product3(const Plain3& A, const Plain3& B)
 {
-    const auto a = [&](int i, int k) { return transposeA ? A.a[k][i] : A.a[i][k]; };
-    const auto b = [&](int k, int j) { return transposeB ? B.a[j][k] : B.a[k][j]; };
+    const auto a = [&](int i, int k) EMP_LAMBDA_INLINE { return transposeA ? A.a[k][i] : A.a[i][k]; };
+    const auto b = [&](int k, int j) EMP_LAMBDA_INLINE { return transposeB ? B.a[j][k] : B.a[k][j]; };
     Plain3 r;
-    forEntries([&](auto k) {
+    forEntries([&](auto k) EMP_LAMBDA_INLINE {
         constexpr int i = k / 3, j = k % 3;
         const double p0 = a(i, 0) * b(0, j), p1 = a(i, 1) * b(1, j), p2 = a(i, 2) * b(2, j);
         r.a[i][j] = !transposeA && i == 2 ? p0 + (p1 + p2) : (p0 + p1) + p2;
@@ -205,17 +205,34 @@ EMP_ALWAYS_INLINE Plain3 product3(const Plain3& A, const Plain3& B)
     return r;
 }
 
-/// One Newton step of the 3D polar decomposition, (X + X^-T) / 2, and the largest change it made.
-EMP_ALWAYS_INLINE Plain3 polarNewtonStep3(const Plain3& X, double& change)
+/// One Newton step of the 3D polar decomposition, (X + X^-T) / 2.
+EMP_ALWAYS_INLINE Plain3 polarNewton3(const Plain3& X)
 {
     const Plain3 T = inverse3<true>(X);
     Plain3 r;
-    change = 0;
-    forEntries([&](auto k) {
+    forEntries([&](auto k) EMP_LAMBDA_INLINE {
         constexpr int i = k / 3, j = k % 3;
         r.a[i][j] = 0.5 * (X.a[i][j] + T.a[i][j]);
-        change = std::max(change, std::abs(r.a[i][j] - X.a[i][j]));
     });
+    return r;
+}
+
+/// The largest change of an entry from X to next (NaN entries are passed over, as std::max does).
+EMP_ALWAYS_INLINE double polarChange3(const Plain3& X, const Plain3& next)
+{
+    double change = 0;
+    forEntries([&](auto k) EMP_LAMBDA_INLINE {
+        constexpr int i = k / 3, j = k % 3;
+        change = std::max(change, std::abs(next.a[i][j] - X.a[i][j]));
+    });
+    return change;
+}
+
+/// polarNewton3 and the largest change it made.
+EMP_ALWAYS_INLINE Plain3 polarNewtonStep3(const Plain3& X, double& change)
+{
+    const Plain3 r = polarNewton3(X);
+    change = polarChange3(X, r);
     return r;
 }
 
@@ -224,7 +241,7 @@ EMP_ALWAYS_INLINE Plain3 stretch3(const Plain3& R, const Plain3& F)
 {
     const Plain3 M = product3<true, false>(R, F);
     Plain3 U;
-    forEntries([&](auto k) { U.a[k / 3][k % 3] = 0.5 * (M.a[k / 3][k % 3] + M.a[k % 3][k / 3]); });
+    forEntries([&](auto k) EMP_LAMBDA_INLINE { U.a[k / 3][k % 3] = 0.5 * (M.a[k / 3][k % 3] + M.a[k % 3][k / 3]); });
     return U;
 }
 
@@ -234,7 +251,7 @@ EMP_ALWAYS_INLINE Plain3 cauchyStress3(const Plain3& R, const Plain3& U, const P
     const Plain3 t = product3<false, true>(product3(R, product3(s, U)), R);
     const double k = 0.5 / determinant3(U);
     Plain3 r;
-    forEntries([&](auto n) { r.a[n / 3][n % 3] = k * (t.a[n / 3][n % 3] + t.a[n % 3][n / 3]); });
+    forEntries([&](auto n) EMP_LAMBDA_INLINE { r.a[n / 3][n % 3] = k * (t.a[n / 3][n % 3] + t.a[n % 3][n / 3]); });
     return r;
 }
 

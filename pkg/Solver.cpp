@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <climits>
+#include <cstring>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -457,14 +458,14 @@ EMP_NOINLINE void Solver<D, K>::corotationalOfRun3(const int* ids, const St* st,
     if constexpr (D == 3) {
         auto& P = points_;
         constexpr int R = stressRun;
-        alignas(64) double f[9][R], x[9][R], u[9][R], r[9][R], sig[9][R], state[R];
-        const auto load = [](const double (*a)[R], int i) {
+        alignas(64) double f[9][R], x[9][R], y[9][R], u[9][R], r[9][R], sig[9][R], state[R];
+        const auto load = [](const double (*a)[R], int i) EMP_LAMBDA_INLINE {
             Plain3 m;
-            forEntries([&](auto k) { m.a[k / 3][k % 3] = a[k][i]; });
+            forEntries([&](auto k) EMP_LAMBDA_INLINE { m.a[k / 3][k % 3] = a[k][i]; });
             return m;
         };
-        const auto store = [](double (*a)[R], int i, const Plain3& m) {
-            forEntries([&](auto k) { a[k][i] = m.a[k / 3][k % 3]; });
+        const auto store = [](double (*a)[R], int i, const Plain3& m) EMP_LAMBDA_INLINE {
+            forEntries([&](auto k) EMP_LAMBDA_INLINE { a[k][i] = m.a[k / 3][k % 3]; });
         };
         for (int i = 0; i < n; ++i) {
             const Mat<3> L = velocityGradient(ids[i], st[i]);
@@ -472,35 +473,41 @@ EMP_NOINLINE void Solver<D, K>::corotationalOfRun3(const int* ids, const St* st,
             for (int k = 0; k < 9; ++k) f[k][i] = F(k / 3, k % 3), r[k][i] = L(k / 3, k % 3);
         }
         // F <- (I - dt L)^-1 F; the Newton iteration starts from F (state 1: iterating, 0: refused).
-#pragma omp simd
         for (int i = 0; i < n; ++i) {
             Plain3 A = load(r, i);
-            forEntries([&](auto k) { A.a[k / 3][k % 3] = (k % 4 == 0 ? 1.0 : 0.0) - dt * A.a[k / 3][k % 3]; });
+            forEntries([&](auto k) EMP_LAMBDA_INLINE { A.a[k / 3][k % 3] = (k % 4 == 0 ? 1.0 : 0.0) - dt * A.a[k / 3][k % 3]; });
             const Plain3 F = product3(inverse3<false>(A), load(f, i));
             store(f, i, F);
             store(x, i, F);
             state[i] = determinant3(F) > 0 ? 1.0 : 0.0;
         }
         // polarDecomposition's iteration (state 2: converged; 1 after 40 iterations: refused).
-        for (int it = 0; it < 40; ++it) {
-            double iterating = 0;
-#pragma omp simd reduction(+ : iterating)
+        // One iteration takes the lanes still iterating one Newton step from `from` into `to`
+        // (the others copied), in one loop that GCC vectorises: it needs the result in another
+        // array than the input (an in-place selection is a conditional store, "control flow in
+        // loop") and no `omp simd` (which keeps the per-lane Plain3 values in memory, "no
+        // vectype"). The iterations alternate between x and y.
+        const auto iterate = [&](const double (&from)[9][R], double (&to)[9][R]) EMP_LAMBDA_INLINE {
             for (int i = 0; i < n; ++i) {
-                const Plain3 X = load(x, i);
-                double change;
-                const Plain3 next = polarNewtonStep3(X, change);
-                const bool active = state[i] == 1.0;
-                store(x, i, active ? next : X);
-                state[i] = active && change < 1e-8 ? 2.0 : state[i];
-                iterating += state[i] == 1.0 ? 1.0 : 0.0;
+                const Plain3 X = load(from, i), next = polarNewton3(X);
+                const double change = polarChange3(X, next), s = state[i];
+                forEntries([&](auto k) EMP_LAMBDA_INLINE { to[k][i] = s == 1.0 ? next.a[k / 3][k % 3] : X.a[k / 3][k % 3]; });
+                state[i] = s == 1.0 ? (change < 1e-8 ? 2.0 : 1.0) : s;
             }
-            if (iterating == 0) break;
+            double iterating = 0;
+            for (int i = 0; i < n; ++i) iterating += state[i] == 1.0 ? 1.0 : 0.0;
+            return iterating > 0;
+        };
+        for (int it = 0; it < 40; it += 2) {
+            if (!iterate(x, y)) {
+                std::memcpy(x, y, sizeof x);
+                break;
+            }
+            if (!iterate(y, x)) break;
         }
         // The settling step gives R; U = sym(R^T F).
-#pragma omp simd
         for (int i = 0; i < n; ++i) {
-            double change;
-            const Plain3 Rot = polarNewtonStep3(load(x, i), change);
+            const Plain3 Rot = polarNewton3(load(x, i));
             store(r, i, Rot);
             store(u, i, stretch3(Rot, load(f, i)));
         }
@@ -526,7 +533,6 @@ EMP_NOINLINE void Solver<D, K>::corotationalOfRun3(const int* ids, const St* st,
                 P.history[p] = std::max(P.history[p], resp.psiPlus);
             });
         }
-#pragma omp simd
         for (int i = 0; i < n; ++i) store(sig, i, cauchyStress3(load(r, i), load(u, i), load(sig, i)));
         for (int i = 0; i < n; ++i)
             if (state[i] == 2.0)
