@@ -120,19 +120,32 @@ private:
         }
         const double i1 = 1.0 / lp, i2 = 0.5 * i1, i4 = 0.25 * i1;
         const V zero = {}, one = zero + 1.0;
-        for (int k = 0; k < S; ++k) {
-            const V r = x - (first + k);
-            const V a = r < 0.0 ? -r : r, sg = r < 0.0 ? -one : one;
-            const V q = 1.0 + lp - a;
-            const V wi = 1.0 - (r * r + lp * lp) * i2, wo = q * q * i4;
-            const V di = -r * i1, dO = -sg * q * i2;
-            const V wv = a < lp ? wi : a <= 1.0 - lp ? 1.0 - a : a < 1.0 + lp ? wo : zero;
-            const V dv = a < lp ? di : a <= 1.0 - lp ? -sg : a < 1.0 + lp ? dO : zero;
+        // s()'s pieces, node by node. With lp <= 1/2 (ppc >= 1) each node can be on only some
+        // of them: the nearest node (k = 1, |r| <= 1/2 <= 1 - lp) on the inner piece or the
+        // linear one; the other two (1/2 <= |r| <= 3/2, r > 0 for k = 0 and r < 0 for k = 2) on the
+        // linear piece, the outer one or none. The pieces they cannot be on are not evaluated;
+        // the values are those of the selects over all four pieces, bit for bit.
+        const auto store = [&](int k, const V& wv, const V& dv) EMP_LAMBDA_INLINE {
             for (int d = 0; d < count; ++d) {
                 w[d][k] = wv[d];
                 dw[d][k] = dv[d];
             }
+        };
+        const auto outerNode = [&](int k, const V& sg) EMP_LAMBDA_INLINE {
+            const V r = x - (first + k);
+            const V a = sg * r;  // |r|: r's sign is known
+            const V q = 1.0 + lp - a;
+            const V wo = q * q * i4, dO = -sg * q * i2;
+            store(k, a <= 1.0 - lp ? 1.0 - a : a < 1.0 + lp ? wo : zero, a <= 1.0 - lp ? -sg : a < 1.0 + lp ? dO : zero);
+        };
+        outerNode(0, one);
+        {
+            const V r = x - (first + 1);
+            const V a = r < 0.0 ? -r : r, sg = r < 0.0 ? -one : one;
+            const V wi = 1.0 - (r * r + lp * lp) * i2, di = -r * i1;
+            store(1, a < lp ? wi : 1.0 - a, a < lp ? di : -sg);
         }
+        outerNode(2, -one);
     }
 };
 
