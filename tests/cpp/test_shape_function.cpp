@@ -280,6 +280,24 @@ TEST(ShapeFunction, LinearKernelIsTheHat)
     }
 }
 
+/// floorToInt, the kernels' base node, is std::floor for grid coordinates: on integers, half
+/// integers (uGIMP's xi + 1/2), their neighbours one ulp away, signed zeros, negatives and
+/// random values up to the int range.
+TEST(ShapeFunction, FloorToIntIsFloor)
+{
+    std::mt19937 rng(71);
+    std::uniform_real_distribution<double> u(-1e5, 1e5);
+    std::vector<double> ys = {0.0, -0.0, 0.5, -0.5, 1.0, -1.0, 2147483647.0, -2147483648.0, 2147483646.5, -2147483647.5};
+    for (int i = -40; i <= 40; ++i)
+        for (double y : {0.5 * i, 0.25 * i + 1e-12}) {
+            ys.push_back(y);
+            ys.push_back(std::nextafter(y, -1e300));
+            ys.push_back(std::nextafter(y, 1e300));
+        }
+    for (int i = 0; i < 200000; ++i) ys.push_back(i % 2 ? u(rng) : std::ldexp(u(rng), -(i % 40)));
+    for (double y : ys) ASSERT_EQ(emp::floorToInt(y), static_cast<int>(std::floor(y))) << "y = " << y;
+}
+
 TEST(ShapeFunction, GimpStencilCoversTheWholeSupport)
 {
     std::mt19937 rng(53);
