@@ -65,7 +65,10 @@ public:
 #pragma omp parallel for schedule(static, 1) num_threads(nThreads) reduction(min : firstOffGrid)
         for (int c = 0; c < nChunks; ++c) {
             int* count = &chunkFill_[static_cast<std::size_t>(c) * numStrips];
-            for (int p = chunkBegin(c); p < chunkBegin(c + 1); ++p) {
+            // (The bounds are taken first: in the condition, chunkBegin's 64-bit division ran at
+            // every point, the stores through count possibly changing what it reads.)
+            const int begin = chunkBegin(c), end = chunkBegin(c + 1);
+            for (int p = begin; p < end; ++p) {
                 int b = 0;
                 for (int d = 0; d < D; ++d) {
                     b = K::base((x[p][d] - g.origin[d]) * g.invh);
@@ -96,7 +99,8 @@ public:
 #pragma omp parallel for schedule(static, 1) num_threads(nThreads)
         for (int c = 0; c < nChunks; ++c) {
             int* fill = &chunkFill_[static_cast<std::size_t>(c) * numStrips];
-            for (int p = chunkBegin(c); p < chunkBegin(c + 1); ++p) order_[fill[stripOf_[p]]++] = p;
+            const int begin = chunkBegin(c), end = chunkBegin(c + 1);
+            for (int p = begin; p < end; ++p) order_[fill[stripOf_[p]]++] = p;
         }
         splitStrips(nThreads);
         return -1;
