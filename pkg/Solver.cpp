@@ -301,9 +301,11 @@ template <int D, class K>
 template <class F>
 EMP_ALWAYS_INLINE bool Solver<D, K>::withSharedPointwiseLaw(const int* ids, int n, F&& f)
 {
-    const int law = materials_[points_.material[ids[0]]].law;
+    // With one law for all materials (set by the pass, stepLaw_) there is nothing to check.
+    const int law = stepLaw_ >= 0 ? stepLaw_ : materials_[points_.material[ids[0]]].law;
     bool same = true;
-    for (int i = 1; i < n; ++i) same = same && materials_[points_.material[ids[i]]].law == law;
+    if (stepLaw_ < 0)
+        for (int i = 1; i < n; ++i) same = same && materials_[points_.material[ids[i]]].law == law;
     bool done = false;
     if (same)
         withLaw(law, [&](auto l) {
@@ -588,6 +590,9 @@ template <int D, class K> void Solver<D, K>::stressAndInternalForce(double dt, i
                     order[k], stencil_[k], gravity);
         }, between);
     };
+    stepLaw_ = materials_.empty() ? -1 : materials_[0].law;
+    for (const ElasticMaterial& m : materials_)
+        if (m.law != stepLaw_) stepLaw_ = -1;
     const bool corotational = settings_.stressUpdate == StressUpdate::corotational;
     if (gravity.isZero(0.0))
         corotational ? pass(std::false_type{}, std::true_type{}) : pass(std::false_type{}, std::false_type{});

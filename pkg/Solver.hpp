@@ -287,6 +287,7 @@ private:
     double lp_;  ///< particle half-width in cells, 1/(2 ppc)
     MaterialPoints<D> points_;
     std::vector<ElasticMaterial> materials_;
+    int stepLaw_ = -1;  ///< in the stress pass: the law of every material, or -1 when they differ
     Grid<D> grid_;
     bool haveDomain_ = false, initialized_ = false;
     Vec<D> domainLo_, domainHi_;
