@@ -200,7 +200,17 @@ template <int D, class K> struct Stencil {
     /// near a pre-existing crack from the remap table (phantom twins).
     EMP_ALWAYS_INLINE void nodes(const Grid<D>& g, int* node) const
     {
-        for (int k = 0; k < NS; ++k) node[k] = remap >= 0 ? g.remap[remap + k] : regularNode(g, k);
+        if (remap >= 0) {
+            for (int k = 0; k < NS; ++k) node[k] = g.remap[remap + k];
+            return;
+        }
+        // regularNode for every k, from the first node and the strides read once: with g's
+        // strides and the base read in the sum for each node, GCC reloaded them after every
+        // store to node[] (it may alias them), about 6 instructions a node in 3D.
+        const int s1 = g.stride[1], s2 = D == 3 ? g.stride[D - 1] : 0;
+        int first = base[0] + base[1] * s1;
+        if constexpr (D == 3) first += base[D - 1] * s2;
+        for (int k = 0; k < NS; ++k) node[k] = first + k % S + (k / S) % S * s1 + (D == 3 ? k / (S * S) * s2 : 0);
     }
 
     /// sum_I v(I) grad N_I^T for the nodal values v(I) (Eq 27's velocity gradient). grad N is a
