@@ -64,15 +64,16 @@ TYPED_TEST(KernelTraitsTest, GradientJumpsAtNodesOnlyWhenDeclared)
 namespace {
 
 // The solver's passes evaluate the kernel with evalAll (all directions at once, selects instead
-// of branches); eval is the plain version. They agree bitwise when lp is a power of two
-// (ppc = 1, 2, 4, 8) and within two ulps of the largest weight otherwise (ppc = 3, 5, 6), on
-// random positions and on the lattice sites of an undeformed block, where the pieces of the
+// of branches, and for uGIMP only the pieces a node can lie on when lp <= 1/2); eval is the
+// plain version. They agree bitwise when lp is a power of two (ppc = 1, 2, 4, ..., 64) and
+// within two ulps of the largest weight otherwise, for every ppc the solver accepts (1 to 64),
+// on random positions and on the lattice sites of an undeformed block, where the pieces of the
 // uGIMP function meet.
 template <int D, class K> void checkEvalAll()
 {
     std::mt19937 rng(11);
     std::uniform_real_distribution<double> u(-3.0, 40.0);
-    for (int ppc = 1; ppc <= 8; ++ppc) {
+    for (int ppc = 1; ppc <= 64; ++ppc) {
         const double lp = 0.5 / ppc;
         const bool exact = (ppc & (ppc - 1)) == 0;
         for (int i = 0; i < 20000; ++i) {
