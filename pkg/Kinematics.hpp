@@ -228,14 +228,6 @@ EMP_ALWAYS_INLINE double polarChange3(const Plain3& X, const Plain3& next)
     return change;
 }
 
-/// polarNewton3 and the largest change it made.
-EMP_ALWAYS_INLINE Plain3 polarNewtonStep3(const Plain3& X, double& change)
-{
-    const Plain3 r = polarNewton3(X);
-    change = polarChange3(X, r);
-    return r;
-}
-
 /// U = sym(R^T F) for the rotation R of F's polar decomposition.
 EMP_ALWAYS_INLINE Plain3 stretch3(const Plain3& R, const Plain3& F)
 {

@@ -210,7 +210,7 @@ template <int D, class K> struct Stencil {
         const int s1 = g.stride[1], s2 = D == 3 ? g.stride[D - 1] : 0;
         int first = base[0] + base[1] * s1;
         if constexpr (D == 3) first += base[D - 1] * s2;
-        for (int k = 0; k < NS; ++k) node[k] = first + k % S + (k / S) % S * s1 + (D == 3 ? k / (S * S) * s2 : 0);
+        for (int k = 0; k < NS; ++k) node[k] = first + k % S + (k / S) % S * s1 + k / (S * S) * s2;
     }
 
     /// sum_I v(I) grad N_I^T for the nodal values v(I) (Eq 27's velocity gradient). grad N is a

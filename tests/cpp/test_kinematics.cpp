@@ -140,8 +140,8 @@ TEST(Kinematics, PlainNumberAlgebra3DIsBitwiseTheEigenForm)
         ASSERT_TRUE(same(emp::product3<true, false>(a, b), A.transpose() * B)) << "trial " << trial;
         ASSERT_TRUE(same(emp::product3<false, true>(a, b), A * B.transpose())) << "trial " << trial;
         ASSERT_EQ(bits(emp::determinant3(a)), bits(A.determinant())) << "trial " << trial;
-        double change;
-        const Plain3 next = emp::polarNewtonStep3(a, change);
+        const Plain3 next = emp::polarNewton3(a);
+        const double change = emp::polarChange3(a, next);
         const Mat<3> nextE = 0.5 * (A + A.inverse().transpose());
         ASSERT_TRUE(same(next, nextE)) << "trial " << trial;
         ASSERT_EQ(bits(change), bits((nextE - A).cwiseAbs().maxCoeff())) << "trial " << trial;
