@@ -393,7 +393,14 @@ int main(int argc, char** argv)
                     r.steps, r.wall, r.cpu, r.pps, r.ratio, r.checked ? (r.deterministic ? "bitwise" : "DIFFERS") : "-");
         allSame = allSame && r.deterministic;
     }
-    std::printf("\npeak resident set of the process: %.1f MB; per point of the largest scene: %.0f B\n\n",
+    // bench_block is built for any x86-64 processor, bench_block_v2 for x86-64-v2 (CMakeLists.txt).
+#ifdef __SSE4_2__
+    const char* isa = "x86-64-v2";
+#else
+    const char* isa = "x86-64";
+#endif
+    std::printf("\ninstruction set: %s\n", isa);
+    std::printf("peak resident set of the process: %.1f MB; per point of the largest scene: %.0f B\n\n",
                 statusBytes("VmHWM:") / 1e6, [&] {
                     long most = 1;
                     for (const auto& r : results) most = std::max(most, r.points);
@@ -402,9 +409,10 @@ int main(int argc, char** argv)
     for (const auto& r : results)
         std::printf("JSON {\"case\": \"%s\", \"points\": %ld, \"threads\": %d, \"steps\": %ld, \"wall_time_s\": %.4f, \"cpu_time_s\": %.4f, "
                     "\"particle_steps_per_s\": %.6g, \"ratio_to_first_thread_count\": %.4f, \"resident_bytes_per_point\": %.1f, "
-                    "\"checksum\": \"%016" PRIx64 "\", \"bitwise_equal_to_first\": %s, \"ranks\": %d, \"bytes_sent_per_step\": %.0f}\n",
+                    "\"checksum\": \"%016" PRIx64 "\", \"bitwise_equal_to_first\": %s, \"ranks\": %d, \"bytes_sent_per_step\": %.0f, "
+                    "\"isa\": \"%s\"}\n",
                     r.caseName.c_str(), r.points, r.threads, r.steps, r.wall, r.cpu, r.pps, r.ratio, r.bytesPerPoint, r.checksum,
-                    r.checked ? (r.deterministic ? "true" : "false") : "null", r.ranks, r.bytesSentPerStep);
+                    r.checked ? (r.deterministic ? "true" : "false") : "null", r.ranks, r.bytesSentPerStep, isa);
     if (!allSame) {
         std::fprintf(stderr, "bench_block: results differ between thread counts (determinism broken)\n");
         return 3;

@@ -9,6 +9,7 @@ that keeps the arithmetic keeps them.
     /usr/bin/python3.11 bench/compare.py OLD NEW [--rounds 7] [--cases gimp2,gimp3]
         [--sizes 1e5] [--size3d 1e5] [--threads 1] [--min-time 2] [--steps N] [--metric cpu]
         [--bench-args "--transfer APIC --stress-update corotational"]
+        [--old-target bench_block] [--new-target bench_block_v2]
 
 --metric cpu rates each run by its CPU time (points x steps / CPU seconds) instead of its wall
 time: on one thread it is much less sensitive to other jobs on a shared machine (they still
@@ -33,8 +34,8 @@ def run(cmd, **kw):
     return subprocess.run(cmd, check=True, text=True, **kw)
 
 
-def build(rev, workdir, jobs):
-    """Path of bench_block built from rev (a worktree per commit, reused when it exists)."""
+def build(rev, workdir, jobs, target="bench_block"):
+    """Path of the benchmark `target` built from rev (a worktree per commit, reused when it exists)."""
     if rev == "worktree":
         src, bld = ROOT, os.path.join(ROOT, "build-compare")
     else:
@@ -45,8 +46,8 @@ def build(rev, workdir, jobs):
         bld = os.path.join(src, "build")
     run(["cmake", "-S", src, "-B", bld, "-DCMAKE_BUILD_TYPE=Release",
          "-DPython3_EXECUTABLE=/usr/bin/python3.11"], stdout=subprocess.DEVNULL)
-    run(["cmake", "--build", bld, "--target", "bench_block", "-j", str(jobs)], stdout=subprocess.DEVNULL)
-    return os.path.join(bld, "bench_block")
+    run(["cmake", "--build", bld, "--target", target, "-j", str(jobs)], stdout=subprocess.DEVNULL)
+    return os.path.join(bld, target)
 
 
 def measure(exe, a):
@@ -81,11 +82,15 @@ def main():
                    help="rate by wall time (default) or CPU time (one thread on a busy machine)")
     p.add_argument("--bench-args", default="",
                    help="more arguments for both builds' bench_block (the option modes: --transfer, --stress-update)")
+    p.add_argument("--old-target", default="bench_block",
+                   help="the benchmark built from OLD: bench_block, or bench_block_v2 (the x86-64-v2 build "
+                        "that the Python module runs on such a processor, since session 17)")
+    p.add_argument("--new-target", default="bench_block", help="the same for NEW")
     p.add_argument("--workdir", default="/tmp/emp-compare")
     p.add_argument("--jobs", type=int, default=os.cpu_count())
     a = p.parse_args()
     os.makedirs(a.workdir, exist_ok=True)
-    exe = {"old": build(a.old, a.workdir, a.jobs), "new": build(a.new, a.workdir, a.jobs)}
+    exe = {"old": build(a.old, a.workdir, a.jobs, a.old_target), "new": build(a.new, a.workdir, a.jobs, a.new_target)}
     ratios, checks = {}, {}
     for r in range(a.rounds):
         res = {}

@@ -788,7 +788,13 @@ template <class Sv> struct Bind {
 
 }  // namespace
 
-BOOST_PYTHON_MODULE(_eigenmpm)
+// The module is built twice from this file: _eigenmpm for any x86-64 processor and, where the
+// compiler offers it, _eigenmpm_v2 for x86-64-v2 (SSE3 to SSE4.2); eigenmpm/_isa.py imports the
+// one the processor runs (doc/performance.md, "Session 17").
+#ifndef EMP_MODULE_NAME
+#define EMP_MODULE_NAME _eigenmpm
+#endif
+BOOST_PYTHON_MODULE(EMP_MODULE_NAME)
 {
     np::initialize();
     bp::def("lawNames", +[] {

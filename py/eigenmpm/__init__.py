@@ -10,14 +10,20 @@ Put the engines in ``O.engines`` beside YADE's own::
     O.engines = [mpm, em.VTKRecorder(fileName='out/bar-', iterPeriod=100),
                  em.PlotRecorder(iterPeriod=10), em.Progress(endIter=10000)]
 """
-from . import checkpoint, parallel
-from .checkpoint import Checkpoint
-from .contact import BodyContact
-from .dem import DemMpmPair, calibrate as calibrateDem, uniaxialTension
-from .engines import MpmEngine, VelocityBC, callEvery, criticalTimeStep, findEngine, mpmEngines
-from .fracture import EigenErosion, kappaRange
-from .materials import ElasticMaterial
-from .recorders import PlotRecorder, Progress, VTKRecorder
+from ._isa import load as _loadModule
+
+# The compiled module for this processor (x86-64 or x86-64-v2, bitwise the same results), before
+# any other part of the package imports it; `isa` says which.
+_eigenmpm, isa = _loadModule()
+
+from . import checkpoint, parallel  # noqa: E402
+from .checkpoint import Checkpoint  # noqa: E402
+from .contact import BodyContact  # noqa: E402
+from .dem import DemMpmPair, calibrate as calibrateDem, uniaxialTension  # noqa: E402
+from .engines import MpmEngine, VelocityBC, callEvery, criticalTimeStep, findEngine, mpmEngines  # noqa: E402
+from .fracture import EigenErosion, kappaRange  # noqa: E402
+from .materials import ElasticMaterial  # noqa: E402
+from .recorders import PlotRecorder, Progress, VTKRecorder  # noqa: E402
 
 __all__ = ["MpmEngine", "EigenErosion", "kappaRange", "VelocityBC", "ElasticMaterial", "VTKRecorder",
            "PlotRecorder", "Progress", "callEvery", "criticalTimeStep", "findEngine", "mpmEngines",
