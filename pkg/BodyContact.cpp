@@ -145,7 +145,8 @@ template <int D> bool BodyContact<D>::cellRange(const Grid<D>& g, const RigidSha
     return true;
 }
 
-template <int D> void BodyContact<D>::binPoints(const Grid<D>& g, const MaterialPoints<D>& P)
+template <int D> void BodyContact<D>::binPoints(const Grid<D>& g, const MaterialPoints<D>& P,
+                                                 const PointSupport<D>* support)
 {
     // The points in the cells of binLo_..binHi_ (the union of the shapes' ranges), by cell
     // (counting sort, in point order within a cell), so that each shape tests only the points
@@ -166,12 +167,23 @@ template <int D> void BodyContact<D>::binPoints(const Grid<D>& g, const Material
     const int np = static_cast<int>(P.size());
     // First the points inside the box (no branch per direction, so the loop stays tight), then
     // their cells, counted and placed in point order.
+    // In the step the solver names the points of the box's rows (from its binning by strips, in
+    // increasing id order, as the scan of every point finds them): the same candidates in the
+    // same order, without a pass over every point.
     candidates_.clear();
-    for (int p = 0; p < np; ++p) {
+    const auto inBox = [&](int p) {
         const auto& x = P.x[p];
         bool in = true;
         for (int d = 0; d < D; ++d) in &= (x[d] >= xlo[d]) & (x[d] <= xhi[d]);
-        if (in) candidates_.push_back(p);
+        return in;
+    };
+    if (support) {
+        support->pointsInRows(binLo_[D - 1], binHi_[D - 1], rowPoints_);
+        for (const int p : rowPoints_)
+            if (inBox(p)) candidates_.push_back(p);
+    } else {
+        for (int p = 0; p < np; ++p)
+            if (inBox(p)) candidates_.push_back(p);
     }
     cellOf_.clear();
     std::size_t kept = 0;
@@ -199,7 +211,7 @@ template <int D> void BodyContact<D>::binPoints(const Grid<D>& g, const Material
 }
 
 template <int D> bool BodyContact<D>::binNear(const Grid<D>& g, const MaterialPoints<D>& P, double reach,
-                                               const std::vector<RigidShape>& list)
+                                               const std::vector<RigidShape>& list, const PointSupport<D>* support)
 {
     // The cell range of each shape, and their union: only the points there are binned.
     ranges_.resize(list.size());
@@ -214,7 +226,7 @@ template <int D> bool BodyContact<D>::binNear(const Grid<D>& g, const MaterialPo
         }
         any = true;
     }
-    if (any) binPoints(g, P);
+    if (any) binPoints(g, P, support);
     return any;
 }
 
@@ -275,7 +287,7 @@ template <int D> void BodyContact<D>::afterForces(GridState<D>& s)
     if (shapes.empty() || s.points.size() == 0 || !s.support) return;
     const auto& P = s.points;
     const double reach = s.support->halfWidth();
-    if (!binNear(s.grid, P, reach, shapes)) return;
+    if (!binNear(s.grid, P, reach, shapes, s.support)) return;
 
     // 1. The points touching each shape, and the nodes of their supports.
     touches_.clear();

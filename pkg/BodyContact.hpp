@@ -93,12 +93,14 @@ private:
     std::vector<Touch> touches_;
     std::vector<Range> ranges_;
     int binLo_[3] = {0, 0, 0}, binHi_[3] = {0, 0, 0};  ///< the binned cells: the union of the ranges
-    std::vector<int> cellStart_, cellPoints_, cellOf_, fill_, candidates_;
+    std::vector<int> cellStart_, cellPoints_, cellOf_, fill_, candidates_, rowPoints_;
     bool cellRange(const Grid<D>& g, const RigidShape& shape, double reach, int lo[3], int hi[3]) const;
     /// The cell range of each of `list`, and the points of their union binned by cell; false when
-    /// no shape's range lies in the grid.
-    bool binNear(const Grid<D>& g, const MaterialPoints<D>& P, double reach, const std::vector<RigidShape>& list);
-    void binPoints(const Grid<D>& g, const MaterialPoints<D>& P);
+    /// no shape's range lies in the grid. With `support` (in the step), only the points it names
+    /// for the union's rows are tested (PointSupport::pointsInRows), otherwise every point.
+    bool binNear(const Grid<D>& g, const MaterialPoints<D>& P, double reach, const std::vector<RigidShape>& list,
+                 const PointSupport<D>* support = nullptr);
+    void binPoints(const Grid<D>& g, const MaterialPoints<D>& P, const PointSupport<D>* support);
     /// Calls f(k, p, x) for every point p of the cells in the range of list[k] (binNear first)
     /// that may lie within `reach` of it, shape by shape, cell by cell, in point order within a
     /// cell; x is p's position in 3D. f returns false to go on to the next shape.

@@ -112,6 +112,9 @@ public:
 
     /// Point ids in binned order: slot k holds point order()[k].
     const std::vector<int>& order() const { return order_; }
+    /// Strip s holds the slots [stripStart()[s], stripStart()[s + 1]): the points whose base node
+    /// along the last axis lies in [s stripWidth, (s + 1) stripWidth), in increasing id order.
+    const std::vector<int>& stripStart() const { return stripStart_; }
     int size() const { return static_cast<int>(order_.size()); }
 
     /// Calls f(slot) for every slot, where f may scatter to the nodes of its point's support:

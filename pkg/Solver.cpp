@@ -653,6 +653,26 @@ template <int D, class K> void Solver<D, K>::tractionForces()
     }
 }
 
+template <int D, class K> void Solver<D, K>::Support::pointsInRows(int lo, int hi, std::vector<int>& ids) const
+{
+    // A point of cell row c (along the last axis) has its base node in [c - (S - 1), c]: strip
+    // s holds the bases [s w, (s + 1) w). Each strip's slots are in increasing id order (the
+    // binning is a stable sort), so the runs of the strips are merged one after the other.
+    const auto& sc = s_->schedule_;
+    const auto& start = sc.stripStart();
+    const int strips = static_cast<int>(start.size()) - 1;
+    constexpr int w = Scheduler<D>::stripWidth;
+    ids.clear();
+    if (strips <= 0 || hi < lo) return;
+    const int s0 = std::max(lo - (K::S - 1), 0) / w, s1 = std::min(std::max(hi, 0) / w, strips - 1);
+    const int* order = sc.order().data();
+    for (int s = s0; s <= s1; ++s) {
+        const std::size_t middle = ids.size();
+        ids.insert(ids.end(), order + start[s], order + start[s + 1]);
+        std::inplace_merge(ids.begin(), ids.begin() + static_cast<std::ptrdiff_t>(middle), ids.end());
+    }
+}
+
 template <int D, class K> void Solver<D, K>::applyConditionsAfterForces(double dt)
 {
     const Support support(this);

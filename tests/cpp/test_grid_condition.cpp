@@ -135,4 +135,54 @@ TYPED_TEST(GridConditionTest, NullConditionIsRefused)
     EXPECT_THROW(s->addCondition(nullptr), emp::ParameterError);
 }
 
+
+/// Asks the support for the points of every window of cell rows along the last axis, in the
+/// step (PointSupport::pointsInRows), and compares with a search of every point.
+template <int D, int S> struct RowsProbe : emp::GridCondition<D> {
+    int windows = 0, missing = 0, unsorted = 0, far = 0, named = 0, points = 0;
+    void afterForces(emp::GridState<D>& s) override
+    {
+        const auto& g = s.grid;
+        const auto& P = s.points;
+        std::vector<int> ids;
+        std::vector<int> row(P.size());
+        for (std::size_t p = 0; p < P.size(); ++p)
+            row[p] = static_cast<int>(std::floor((P.x[p][D - 1] - g.origin[D - 1]) * g.invh));
+        points = static_cast<int>(P.size());
+        for (int lo = -1; lo < g.n[D - 1]; ++lo)
+            for (int width = 0; width < 4; ++width) {
+                const int hi = lo + width;
+                s.support->pointsInRows(lo, hi, ids);
+                ++windows;
+                named += static_cast<int>(ids.size());
+                for (std::size_t k = 1; k < ids.size(); ++k) unsorted += ids[k - 1] >= ids[k];
+                std::vector<char> seen(P.size(), 0);
+                for (const int p : ids) {
+                    seen[p] = 1;
+                    // Only the strips (2 cells) that can hold those rows: a point of a row
+                    // further than a strip and the support from the window is not named.
+                    far += row[p] < lo - S || row[p] > hi + S - 1;
+                }
+                for (std::size_t p = 0; p < P.size(); ++p) missing += row[p] >= lo && row[p] <= hi && !seen[p];
+            }
+    }
+};
+
+TYPED_TEST(GridConditionTest, PointsInRowsNamesEveryPointOfTheRowsInIdOrderAndFewOthers)
+{
+    constexpr int D = TypeParam::D;
+    using K = typename TypeParam::K;
+    auto s = wavyBlock<D, K>();
+    auto probe = std::make_shared<RowsProbe<D, K::S>>();
+    s->addCondition(probe);
+    const double dt = 0.5 * s->criticalTimeStep();
+    for (int k = 0; k < 3; ++k) s->step(dt, 2);
+    EXPECT_GT(probe->windows, 30);
+    EXPECT_EQ(probe->missing, 0);
+    EXPECT_EQ(probe->unsorted, 0);
+    EXPECT_EQ(probe->far, 0);
+    // Far fewer than every point for every window: the strips, not a scan of all points.
+    EXPECT_LT(probe->named, probe->windows * probe->points / 2);
+}
+
 }  // namespace
