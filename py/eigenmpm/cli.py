@@ -157,8 +157,11 @@ class RunEnd:
         return SOLVER_ERROR_STATUS
 
     def summary(self):
-        """The keys every example's summary.json carries about the end of its run."""
-        return dict(stopped_early=self.reason, stopped_early_time_s=self.time if self.early else None)
+        """The keys every example's summary.json carries about the end of its run, and which
+        build of the compiled module ran it (eigenmpm.isa: the same results, not the same speed)."""
+        from . import isa
+        return dict(stopped_early=self.reason, stopped_early_time_s=self.time if self.early else None,
+                    instruction_set=isa)
 
     def note(self):
         """One line for figures and the log, e.g. 'stopped early at t = 23.4 us (iteration 2340):

@@ -53,7 +53,7 @@ def test_signal_stops_the_run_at_a_step_boundary_within_a_second(signum, status)
     assert end.early and end.exitStatus == status
     assert 0 < O.iter < 30000 and mpm.solver.steps == O.iter == end.iter
     assert end.time == O.time == pytest.approx(mpm.solver.time, rel=1e-12)
-    assert end.summary() == {"stopped_early": "interrupted", "stopped_early_time_s": O.time}
+    assert end.summary() == {"stopped_early": "interrupted", "stopped_early_time_s": O.time, "instruction_set": em.isa}
     assert signal.getsignal(signum) is before  # the handler was the run's only
     with pytest.raises(KeyboardInterrupt):
         end.check()
@@ -80,7 +80,7 @@ def test_a_run_the_script_pauses_itself_is_complete():
     end = runSteps(100)
     assert not end.early and end.reason is None and end.exitStatus == 0
     assert O.iter == 8 == mpm.solver.steps
-    assert end.summary() == {"stopped_early": None, "stopped_early_time_s": None}
+    assert end.summary() == {"stopped_early": None, "stopped_early_time_s": None, "instruction_set": em.isa}
     assert end.check() is end
 
 
