@@ -36,15 +36,8 @@ public:
     virtual double halfWidth() const = 0;
     /// Writes into `ids`, in increasing order, the points whose cell along the last axis lies in
     /// the rows [lo, hi] (cell row c holds floor((x - origin) / h) = c), and possibly others: the
-    /// caller tests each. Without a binning to read them from, every point.
-    virtual void pointsInRows(int lo, int hi, std::vector<int>& ids) const
-    {
-        (void)lo;
-        (void)hi;
-        ids.resize(numPoints());
-        for (int p = 0; p < static_cast<int>(ids.size()); ++p) ids[p] = p;
-    }
-    virtual int numPoints() const = 0;
+    /// caller tests each.
+    virtual void pointsInRows(int lo, int hi, std::vector<int>& ids) const = 0;
 };
 
 /// What a condition sees at its point of the step.

@@ -305,7 +305,6 @@ private:
             st.forEach(s_->grid_, [&](int I, double N, const Vec<D>&) { f(I, N); });
         }
         double halfWidth() const override { return s_->lp_ * s_->settings_.h; }
-        int numPoints() const override { return static_cast<int>(s_->points_.size()); }
         /// From this step's binning (the points have not moved since): the strips that can hold
         /// a point of those rows, their sorted runs merged.
         void pointsInRows(int lo, int hi, std::vector<int>& ids) const override;
