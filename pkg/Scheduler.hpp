@@ -12,6 +12,14 @@
 // nodes and the stencils it touched in the pass before in its own core's cache. (With the strips
 // dealt out one at a time, two threads ran the 2D step at 1e5 points about 1.6 times as fast as
 // one instead of 1.8: the grid's cache lines moved between the cores at every pass.)
+//
+// Columns (setColumns, off by default): the strips may also be cut along the first axis into
+// columns of `columnCells` cells, the points of a strip then sorted by column, then id, and a
+// scatter runs in four colours (strip parity, then column parity), tiles of one colour sharing no
+// node. The order of the contributions to every node is then fixed by the tiles alone, so that a
+// run can also be split between processes along the first axis and stay bitwise that of one
+// process with the same columns (doc/parallel.md, "Decomposition in two directions"). Without
+// columns the order is the strips' alone, as before.
 #pragma once
 #include <algorithm>
 #include <climits>
@@ -19,6 +27,7 @@
 #include <string>
 #include <vector>
 
+#include "Errors.hpp"
 #include "Grid.hpp"
 
 namespace emp {
@@ -30,6 +39,18 @@ public:
     /// equal shares of the points (3D block of 97 336 points on two threads: 1.65x one thread
     /// with strips of 4 cells, 1.87x with 2).
     static constexpr int stripWidth = 2;
+
+    /// Cuts the strips into columns of `cells` cells along the first axis (0: one column, the
+    /// default). Applies from the next bin(); a kernel of support S needs cells >= S - 1.
+    void setColumns(int cells) { columnCells_ = std::max(0, cells); }
+    int columnCells() const { return columnCells_; }
+    /// Columns of the last bin (1 without columns).
+    int numColumns() const { return numColumns_; }
+    /// The column of a point at x, for the kernel K (0 without columns; x on the grid).
+    template <class K> int columnOf(const Vec<D>& x, const Grid<D>& g) const
+    {
+        return columnCells_ > 0 ? K::base((x[0] - g.origin[0]) * g.invh) / columnCells_ : 0;
+    }
 
     /// The number of strips of a grid, for the kernel K.
     template <class K> static int numStrips(const Grid<D>& g) { return (g.n[D - 1] - K::S) / stripWidth + 1; }
@@ -51,59 +72,13 @@ public:
     {
         static_assert(stripWidth >= K::S - 1,
                       "strips of one colour would share nodes: a kernel of support S needs stripWidth >= S - 1");
+        // (Tiles of one colour two columns apart share no node when columnCells >= S - 1.)
+        require(columnCells_ == 0 || columnCells_ >= K::S - 1, "columnCells", columnCells_,
+                "0 (no columns) or at least " + std::to_string(K::S - 1) + " for this shape function");
         constexpr int last = D - 1;
         const int numStrips = (g.n[last] - K::S) / stripWidth + 1;
-        const int np = static_cast<int>(x.size());
-        stripOf_.resize(np);
-        // A stable counting sort in chunks of points: each chunk counts its points per strip,
-        // and fills its slots after those of the chunks before it in each strip. The order is
-        // that of a serial stable sort (by strip, then id) whatever the chunks.
-        const int nChunks = std::max(1, std::min(nThreads, np / minChunk));
-        const auto chunkBegin = [&](int c) { return static_cast<int>(static_cast<long long>(np) * c / nChunks); };
-        chunkFill_.assign(static_cast<std::size_t>(nChunks) * numStrips, 0);
-        int firstOffGrid = INT_MAX;
-#pragma omp parallel for schedule(static, 1) num_threads(nThreads) reduction(min : firstOffGrid)
-        for (int c = 0; c < nChunks; ++c) {
-            int* count = &chunkFill_[static_cast<std::size_t>(c) * numStrips];
-            // (The bounds are taken first: in the condition, chunkBegin's 64-bit division ran at
-            // every point, the stores through count possibly changing what it reads.)
-            const int begin = chunkBegin(c), end = chunkBegin(c + 1);
-            for (int p = begin; p < end; ++p) {
-                int b = 0;
-                for (int d = 0; d < D; ++d) {
-                    b = K::base((x[p][d] - g.origin[d]) * g.invh);
-                    if (!(b >= 0 && b <= g.n[d] - K::S)) {
-                        firstOffGrid = std::min(firstOffGrid, p);
-                        b = 0;
-                        break;
-                    }
-                }
-                stripOf_[p] = b / stripWidth;  // b is now the base node along the last axis
-                ++count[stripOf_[p]];
-            }
-        }
-        if (firstOffGrid != INT_MAX) return firstOffGrid;
-        // Strip starts, and each chunk's first slot in each strip.
-        stripStart_.assign(numStrips + 1, 0);
-        for (int s = 0; s < numStrips; ++s) {
-            int next = stripStart_[s];
-            for (int c = 0; c < nChunks; ++c) {
-                int& fill = chunkFill_[static_cast<std::size_t>(c) * numStrips + s];
-                const int count = fill;
-                fill = next;
-                next += count;
-            }
-            stripStart_[s + 1] = next;
-        }
-        order_.resize(np);
-#pragma omp parallel for schedule(static, 1) num_threads(nThreads)
-        for (int c = 0; c < nChunks; ++c) {
-            int* fill = &chunkFill_[static_cast<std::size_t>(c) * numStrips];
-            const int begin = chunkBegin(c), end = chunkBegin(c + 1);
-            for (int p = begin; p < end; ++p) order_[fill[stripOf_[p]]++] = p;
-        }
-        splitStrips(nThreads);
-        return -1;
+        numColumns_ = columnCells_ > 0 ? (g.n[0] - K::S) / columnCells_ + 1 : 1;
+        return numColumns_ > 1 ? binTiles<K, true>(x, g, nThreads, numStrips) : binTiles<K, false>(x, g, nThreads, numStrips);
     }
 
     /// Worker t's strips are [split()[t], split()[t + 1]): contiguous, each range holding about
@@ -113,8 +88,12 @@ public:
     /// Point ids in binned order: slot k holds point order()[k].
     const std::vector<int>& order() const { return order_; }
     /// Strip s holds the slots [stripStart()[s], stripStart()[s + 1]): the points whose base node
-    /// along the last axis lies in [s stripWidth, (s + 1) stripWidth), in increasing id order.
+    /// along the last axis lies in [s stripWidth, (s + 1) stripWidth), in increasing id order
+    /// (with columns: by column, then id).
     const std::vector<int>& stripStart() const { return stripStart_; }
+    /// Tile (s, c) (strip s, column c) holds the slots [tileStart()[t], tileStart()[t + 1]), t =
+    /// s numColumns() + c, in increasing id order; without columns the tiles are the strips.
+    const std::vector<int>& tileStart() const { return numColumns_ > 1 ? tileStart_ : stripStart_; }
     int size() const { return static_cast<int>(order_.size()); }
 
     /// Calls f(slot) for every slot, where f may scatter to the nodes of its point's support:
@@ -146,12 +125,22 @@ public:
     {
         // Worker t runs the strips of split_'s range t (iteration t of a static schedule of
         // chunk 1 goes to thread t); with fewer threads than ranges a thread runs several.
-        const int nRanges = static_cast<int>(split_.size()) - 1;
+        const int nRanges = static_cast<int>(split_.size()) - 1, nc = numColumns_;
         for (int colour = 0; colour < 2; ++colour) {
+            if (nc == 1) {
 #pragma omp parallel for schedule(static, 1) num_threads(nThreads)
-            for (int t = 0; t < nRanges; ++t)
-                for (int s = split_[t] + ((split_[t] & 1) != colour); s < split_[t + 1]; s += 2)
-                    f(stripStart_[s], stripStart_[s + 1]);
+                for (int t = 0; t < nRanges; ++t)
+                    for (int s = split_[t] + ((split_[t] & 1) != colour); s < split_[t + 1]; s += 2)
+                        f(stripStart_[s], stripStart_[s + 1]);
+            } else {
+                // The even columns of the colour's strips, then the odd ones.
+                for (int parity = 0; parity < 2; ++parity) {
+#pragma omp parallel for schedule(static, 1) num_threads(nThreads)
+                    for (int t = 0; t < nRanges; ++t)
+                        for (int s = split_[t] + ((split_[t] & 1) != colour); s < split_[t + 1]; s += 2)
+                            for (int c = parity; c < nc; c += 2) f(tileStart_[s * nc + c], tileStart_[s * nc + c + 1]);
+                }
+            }
             if (colour == 0 && between) between();
         }
     }
@@ -198,6 +187,70 @@ public:
     }
 
 private:
+    /// bin's counting sort, by strip (columns: by tile, strip-major).
+    template <class K, bool columns> int binTiles(const std::vector<Vec<D>>& x, const Grid<D>& g, int nThreads, int numStrips)
+    {
+        const int nc = columns ? numColumns_ : 1, numKeys = numStrips * nc;
+        const int np = static_cast<int>(x.size());
+        keyOf_.resize(np);
+        // A stable counting sort in chunks of points: each chunk counts its points per key (strip
+        // or tile), and fills its slots after those of the chunks before it in each key. The
+        // order is that of a serial stable sort (by key, then id) whatever the chunks.
+        const int nChunks = std::max(1, std::min(nThreads, np / minChunk));
+        const auto chunkBegin = [&](int c) { return static_cast<int>(static_cast<long long>(np) * c / nChunks); };
+        chunkFill_.assign(static_cast<std::size_t>(nChunks) * numKeys, 0);
+        int firstOffGrid = INT_MAX;
+#pragma omp parallel for schedule(static, 1) num_threads(nThreads) reduction(min : firstOffGrid)
+        for (int c = 0; c < nChunks; ++c) {
+            int* count = &chunkFill_[static_cast<std::size_t>(c) * numKeys];
+            // (The bounds are taken first: in the condition, chunkBegin's 64-bit division ran at
+            // every point, the stores through count possibly changing what it reads.)
+            const int begin = chunkBegin(c), end = chunkBegin(c + 1);
+            for (int p = begin; p < end; ++p) {
+                int b = 0, column = 0;
+                for (int d = 0; d < D; ++d) {
+                    b = K::base((x[p][d] - g.origin[d]) * g.invh);
+                    if (!(b >= 0 && b <= g.n[d] - K::S)) {
+                        firstOffGrid = std::min(firstOffGrid, p);
+                        b = 0;
+                        break;
+                    }
+                    if (columns && d == 0) column = b / columnCells_;
+                }
+                // b is now the base node along the last axis (the key's strip).
+                keyOf_[p] = columns ? b / stripWidth * nc + column : b / stripWidth;
+                ++count[keyOf_[p]];
+            }
+        }
+        if (firstOffGrid != INT_MAX) return firstOffGrid;
+        // Key starts, and each chunk's first slot in each key.
+        std::vector<int>& start = columns ? tileStart_ : stripStart_;
+        start.assign(numKeys + 1, 0);
+        for (int s = 0; s < numKeys; ++s) {
+            int next = start[s];
+            for (int c = 0; c < nChunks; ++c) {
+                int& fill = chunkFill_[static_cast<std::size_t>(c) * numKeys + s];
+                const int count = fill;
+                fill = next;
+                next += count;
+            }
+            start[s + 1] = next;
+        }
+        if (columns) {
+            stripStart_.resize(numStrips + 1);
+            for (int s = 0; s <= numStrips; ++s) stripStart_[s] = tileStart_[static_cast<std::size_t>(s) * nc];
+        }
+        order_.resize(np);
+#pragma omp parallel for schedule(static, 1) num_threads(nThreads)
+        for (int c = 0; c < nChunks; ++c) {
+            int* fill = &chunkFill_[static_cast<std::size_t>(c) * numKeys];
+            const int begin = chunkBegin(c), end = chunkBegin(c + 1);
+            for (int p = begin; p < end; ++p) order_[fill[keyOf_[p]]++] = p;
+        }
+        splitStrips(nThreads);
+        return -1;
+    }
+
     void splitStrips(int nThreads)
     {
         const int numStrips = static_cast<int>(stripStart_.size()) - 1;
@@ -215,7 +268,8 @@ private:
 
     /// Points per chunk of bin's counting sort at least (fewer points: one chunk, serial).
     static constexpr int minChunk = 4096;
-    std::vector<int> order_, stripStart_, stripOf_, chunkFill_, split_;
+    std::vector<int> order_, stripStart_, tileStart_, keyOf_, chunkFill_, split_;
+    int columnCells_ = 0, numColumns_ = 1;
 };
 
 }  // namespace emp

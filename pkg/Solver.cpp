@@ -656,19 +656,20 @@ template <int D, class K> void Solver<D, K>::tractionForces()
 template <int D, class K> void Solver<D, K>::Support::pointsInRows(int lo, int hi, std::vector<int>& ids) const
 {
     // A point of cell row c (along the last axis) has its base node in [c - (S - 1), c]: strip
-    // s holds the bases [s w, (s + 1) w). Each strip's slots are in increasing id order (the
-    // binning is a stable sort), so the runs of the strips are merged one after the other.
+    // s holds the bases [s w, (s + 1) w). Each tile's slots (a strip's, without columns) are in
+    // increasing id order (the binning is a stable sort), so their runs are merged one after the
+    // other.
     const auto& sc = s_->schedule_;
-    const auto& start = sc.stripStart();
-    const int strips = static_cast<int>(start.size()) - 1;
+    const auto& start = sc.tileStart();
+    const int nc = sc.numColumns(), strips = (static_cast<int>(start.size()) - 1) / nc;
     constexpr int w = Scheduler<D>::stripWidth;
     ids.clear();
     if (strips <= 0 || hi < lo) return;
     const int s0 = std::max(lo - (K::S - 1), 0) / w, s1 = std::min(std::max(hi, 0) / w, strips - 1);
     const int* order = sc.order().data();
-    for (int s = s0; s <= s1; ++s) {
+    for (int t = s0 * nc; t < (s1 + 1) * nc; ++t) {
         const std::size_t middle = ids.size();
-        ids.insert(ids.end(), order + start[s], order + start[s + 1]);
+        ids.insert(ids.end(), order + start[t], order + start[t + 1]);
         std::inplace_merge(ids.begin(), ids.begin() + static_cast<std::ptrdiff_t>(middle), ids.end());
     }
 }
@@ -886,6 +887,8 @@ template <int D, class K> Solver<D, K>::Solver(const SolverSettings& s) : settin
     require(s.massCutoff >= 0 && s.massCutoff < 1, "massCutoff (fraction of the mean point mass)",
             s.massCutoff, "0 <= massCutoff < 1");
     require(s.padding >= 1, "padding (cells)", s.padding, "padding >= 1");
+    require(s.columnCells == 0 || (s.columnCells >= K::S - 1 && s.columnCells <= 1 << 20), "columnCells", s.columnCells,
+            "0 (no columns) or " + std::to_string(K::S - 1) + " to 2^20 cells for this shape function");
     require(s.gravity.allFinite(), "gravity (m/s2)", "non-finite or not set", "finite components");
     require(s.transfer != Transfer::unset, "transfer", "not set", "'FLIP' or 'APIC'");
     require(s.stressUpdate != StressUpdate::unset, "stressUpdate", "not set", "'smallStrain' or 'corotational'");
@@ -895,6 +898,7 @@ template <int D, class K> Solver<D, K>::Solver(const SolverSettings& s) : settin
     lp_ = 0.5 / s.ppc;
     points_.affine = s.transfer == Transfer::apic;
     points_.deformation = s.stressUpdate == StressUpdate::corotational;
+    schedule_.setColumns(s.columnCells);
 }
 
 template <int D, class K>

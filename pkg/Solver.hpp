@@ -52,6 +52,9 @@ struct SolverSettings {
     int padding = 0;  ///< cells added around the points when the grid is sized automatically
     Transfer transfer = Transfer::unset;              ///< FLIP (the paper's) or APIC (Kinematics.hpp)
     StressUpdate stressUpdate = StressUpdate::unset;  ///< smallStrain (the paper's) or corotational
+    /// Columns of the scheduler along the first axis, in cells (0: none): the order of the
+    /// contributions to the nodes, which a decomposition in two directions needs (Scheduler.hpp).
+    int columnCells = 0;
 };
 
 template <int D, class Kernel> class Solver {

@@ -10,10 +10,11 @@ namespace emp {
 
 namespace {
 const char* kFormat = "EigenMPM solver state";
-constexpr std::uint32_t kVersion = 6;  // 2: transfer, stress update, energy diagnostics; 3: contact work, crack-face contact;
+constexpr std::uint32_t kVersion = 7;  // 2: transfer, stress update, energy diagnostics; 3: contact work, crack-face contact;
                                        // 4: bodies in one grid (point body ids, their friction); 5: a rank's part
                                        // of a distributed run (its flag, point ids, the ranks' strips); 6: the
-                                       // points' reference positions of a run distributed at set-up
+                                       // points' reference positions of a run distributed at set-up; 7: the
+                                       // scheduler's columns
 }  // namespace
 
 StateHeader readStateHeader(std::istream& is)
@@ -55,6 +56,7 @@ template <int D, class K> void Solver<D, K>::saveState(std::ostream& os) const
     w.value(settings_.padding);
     w.string(name(settings_.transfer));
     w.string(name(settings_.stressUpdate));
+    w.value(settings_.columnCells);
 
     w.string("solver");
     w.value(haveDomain_);
@@ -153,6 +155,7 @@ template <int D, class K> std::shared_ptr<Solver<D, K>> Solver<D, K>::loadState(
         if (st.transfer == Transfer::unset || st.stressUpdate == StressUpdate::unset)
             r.fail("the transfer '" + transfer + "' or stress update '" + update + "', which this EigenMPM does not have");
     }
+    if (h.version >= 7) st.columnCells = r.value<int>();
     auto s = std::make_shared<Solver<D, K>>(st);
 
     r.expect("solver");

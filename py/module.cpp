@@ -399,7 +399,7 @@ template <class Sv> struct Bind {
     static constexpr int D = Sv::dim;
 
     static std::shared_ptr<Sv> make(double h, int ppc, double massCutoff, int padding, bp::object gravity,
-                                    const std::string& transfer, const std::string& stressUpdate)
+                                    const std::string& transfer, const std::string& stressUpdate, int columnCells)
     {
         SolverSettings s;
         s.transfer = transferOf(transfer);
@@ -410,6 +410,7 @@ template <class Sv> struct Bind {
         s.ppc = ppc;
         s.massCutoff = massCutoff;
         s.padding = padding;
+        s.columnCells = columnCells;
         s.gravity = toVec3(gravity, "gravity");
         return std::make_shared<Sv>(s);
     }
@@ -689,7 +690,9 @@ template <class Sv> struct Bind {
             .def("__init__", bp::make_constructor(&make, bp::default_call_policies(),
                                                   (bp::arg("h"), bp::arg("ppc"), bp::arg("massCutoff"),
                                                    bp::arg("padding"), bp::arg("gravity"),
-                                                   bp::arg("transfer") = "FLIP", bp::arg("stressUpdate") = "smallStrain")))
+                                                   bp::arg("transfer") = "FLIP", bp::arg("stressUpdate") = "smallStrain",
+                                                   bp::arg("columnCells") = 0)))
+            .add_property("columnCells", +[](const Sv& s) { return s.settings().columnCells; })
             .add_property("transfer", +[](const Sv& s) { return std::string(emp::name(s.settings().transfer)); })
             .add_property("stressUpdate", +[](const Sv& s) { return std::string(emp::name(s.settings().stressUpdate)); })
             .def("kineticEnergyAtStep", &Sv::kineticEnergyAtStep)

@@ -14,11 +14,12 @@ TYPED_TEST_SUITE(StateTest, emptest::AllSolvers);
 
 /// A block with a random velocity field, a velocity condition, a ramped traction, an interior
 /// crack and an erosion stage whose Gc some points reach within the run.
-template <int D, class K> std::shared_ptr<emp::Solver<D, K>> scene(unsigned seed)
+template <int D, class K> std::shared_ptr<emp::Solver<D, K>> scene(unsigned seed, int columnCells = 0)
 {
     std::mt19937 rng(seed);
     std::uniform_real_distribution<double> u(-1.0, 1.0);
     auto st = emptest::typicalSettings(0.01, 2);
+    st.columnCells = columnCells;
     st.gravity = Eigen::Vector3d(0.0, -9.81, 0.0);
     auto s = std::make_shared<emp::Solver<D, K>>(st);
     const int mat = s->addMaterial(1e7, 0.25, 1000, D == 2, emp::lawIndex("spectral"));
@@ -74,13 +75,15 @@ TYPED_TEST(StateTest, RestoredSolverContinuesBitwise)
     constexpr int D = TypeParam::D;
     using K = typename TypeParam::K;
     using Sv = emp::Solver<D, K>;
+    for (int columns : {0, 2})  // (the scheduler's columns are saved: Scheduler.hpp)
     for (int threads : {1, 2}) {
-        auto a = scene<D, K>(3);
+        auto a = scene<D, K>(3, columns);
         const double dt = 0.5 * a->criticalTimeStep();
         for (int k = 0; k < 15; ++k) a->step(dt, threads);
         std::stringstream archive;
         a->saveState(archive);
         auto b = Sv::loadState(archive);
+        EXPECT_EQ(b->settings().columnCells, columns);
         expectSame(*a, *b);
         // The restored solver counts the twins of its crack's position, which the next step marks.
         const int twinsAfterLoad = b->phantomNodes().numTwins();
