@@ -97,9 +97,9 @@ public:
     int size() const { return static_cast<int>(order_.size()); }
 
     /// Calls f(slot) for every slot, where f may scatter to the nodes of its point's support:
-    /// two colours of strips, each strip in slot order.
-    /// `between`, when given, runs between the two colours (a distributed run's exchange,
-    /// Distribution.hpp).
+    /// two colours of strips (each in two colours of columns, with columns), each strip in slot
+    /// order. `between`, when given, runs between the strips' two colours (a distributed run's
+    /// exchange, Distribution.hpp).
     template <class F> void scatter(int nThreads, F&& f, const std::function<void()>& between = {}) const
     {
         scatterStrips(nThreads, [&](int begin, int end) {
@@ -108,7 +108,7 @@ public:
     }
 
     /// scatter in runs: calls f(begin, end) for consecutive ranges of at most `run` slots of one
-    /// strip, in slot order. A pass can then do its per-point work for the whole run before it
+    /// tile (strip), in slot order. A pass can then do its per-point work for the whole run before it
     /// scatters: points are independent until they write, so their long chains of dependent
     /// arithmetic (the law's square roots and divisions) overlap in the processor instead of
     /// following each other; the order of the contributions to each node is that of scatter.
@@ -119,30 +119,44 @@ public:
         }, between);
     }
 
-    /// The strips of scatter: calls f(begin, end) with the slot range of every strip, two colours
-    /// of strips one after the other, each worker the strips of its range (split()).
+    /// The tiles of scatter: calls f(begin, end) with the slot range of every tile (strip, without
+    /// columns), the phases (numPhases()) one after the other, each worker the strips of its
+    /// range (split()).
     template <class F> void scatterStrips(int nThreads, F&& f, const std::function<void()>& between = {}) const
+    {
+        const int phases = numPhases();
+        for (int phase = 0; phase < phases; ++phase) {
+            scatterPhase(phase, nThreads, f);
+            if (phase == phases / 2 - 1 && between) between();
+        }
+    }
+
+    /// The colours of a scatter, run one after the other: 2 without columns (the strips'
+    /// parity), 4 with (the strips' parity, then the columns').
+    int numPhases() const { return numColumns_ > 1 ? 4 : 2; }
+    /// The colour of tile (strip s, column c): the phase that writes it.
+    int colourOf(int s, int c) const { return numColumns_ > 1 ? 2 * (s & 1) + (c & 1) : s & 1; }
+
+    /// One phase of scatterStrips: calls f(begin, end) with the slot range of every tile of
+    /// colour `phase`, each worker the tiles of its range of strips (split()). Tiles of one
+    /// colour share no node.
+    template <class F> void scatterPhase(int phase, int nThreads, F&& f) const
     {
         // Worker t runs the strips of split_'s range t (iteration t of a static schedule of
         // chunk 1 goes to thread t); with fewer threads than ranges a thread runs several.
         const int nRanges = static_cast<int>(split_.size()) - 1, nc = numColumns_;
-        for (int colour = 0; colour < 2; ++colour) {
-            if (nc == 1) {
+        if (nc == 1) {
 #pragma omp parallel for schedule(static, 1) num_threads(nThreads)
-                for (int t = 0; t < nRanges; ++t)
-                    for (int s = split_[t] + ((split_[t] & 1) != colour); s < split_[t + 1]; s += 2)
-                        f(stripStart_[s], stripStart_[s + 1]);
-            } else {
-                // The even columns of the colour's strips, then the odd ones.
-                for (int parity = 0; parity < 2; ++parity) {
-#pragma omp parallel for schedule(static, 1) num_threads(nThreads)
-                    for (int t = 0; t < nRanges; ++t)
-                        for (int s = split_[t] + ((split_[t] & 1) != colour); s < split_[t + 1]; s += 2)
-                            for (int c = parity; c < nc; c += 2) f(tileStart_[s * nc + c], tileStart_[s * nc + c + 1]);
-                }
-            }
-            if (colour == 0 && between) between();
+            for (int t = 0; t < nRanges; ++t)
+                for (int s = split_[t] + ((split_[t] & 1) != phase); s < split_[t + 1]; s += 2)
+                    f(stripStart_[s], stripStart_[s + 1]);
+            return;
         }
+        const int colour = phase >> 1, parity = phase & 1;
+#pragma omp parallel for schedule(static, 1) num_threads(nThreads)
+        for (int t = 0; t < nRanges; ++t)
+            for (int s = split_[t] + ((split_[t] & 1) != colour); s < split_[t + 1]; s += 2)
+                for (int c = parity; c < nc; c += 2) f(tileStart_[s * nc + c], tileStart_[s * nc + c + 1]);
     }
 
     /// Calls f(slot, acc) for every slot where f writes only its own point, with an accumulator
