@@ -86,4 +86,28 @@ std::vector<std::vector<char>> MpiTransport::allToAll(const std::vector<std::vec
     return from;
 }
 
+std::vector<std::vector<char>> MpiTransport::neighbourExchange(const std::vector<int>& ranks,
+                                                             const std::vector<std::vector<char>>& out)
+{
+    // Sizes first, then the bytes, with every neighbour at once (tags of their own: the line's
+    // exchange uses 0 to 3).
+    const int n = static_cast<int>(ranks.size());
+    std::vector<long> sizeOut(n), sizeIn(n, 0);
+    std::vector<MPI_Request> req(2 * static_cast<std::size_t>(n));
+    for (int i = 0; i < n; ++i) {
+        sizeOut[i] = static_cast<long>(out[i].size());
+        MPI_Irecv(&sizeIn[i], 1, MPI_LONG, ranks[i], 4, comm_, &req[2 * i]);
+        MPI_Isend(&sizeOut[i], 1, MPI_LONG, ranks[i], 4, comm_, &req[2 * i + 1]);
+    }
+    MPI_Waitall(2 * n, req.data(), MPI_STATUSES_IGNORE);
+    std::vector<std::vector<char>> in(n);
+    for (int i = 0; i < n; ++i) {
+        in[i].assign(sizeIn[i], 0);
+        MPI_Irecv(in[i].data(), static_cast<int>(sizeIn[i]), MPI_BYTE, ranks[i], 5, comm_, &req[2 * i]);
+        MPI_Isend(out[i].data(), static_cast<int>(out[i].size()), MPI_BYTE, ranks[i], 5, comm_, &req[2 * i + 1]);
+    }
+    MPI_Waitall(2 * n, req.data(), MPI_STATUSES_IGNORE);
+    return in;
+}
+
 }  // namespace emp

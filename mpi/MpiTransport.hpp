@@ -19,6 +19,8 @@ public:
     void max(double* v, int n) override;
     std::vector<std::vector<char>> allGather(const std::vector<char>& mine) override;
     std::vector<std::vector<char>> allToAll(const std::vector<std::vector<char>>& toEach) override;
+    std::vector<std::vector<char>> neighbourExchange(const std::vector<int>& ranks,
+                                                     const std::vector<std::vector<char>>& out) override;
 
 private:
     MPI_Comm comm_;

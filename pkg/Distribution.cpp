@@ -15,18 +15,44 @@ template <int D> Distribution<D>::Distribution(std::shared_ptr<Transport> t) : t
     require(size_ >= 1, "number of ranks", size_, ">= 1");
 }
 
+template <int D> void Distribution<D>::setColumns(int columns, int columnCells, int numColumns, const std::array<int, D>& n)
+{
+    require(!partitioned(), "rank columns", "set after the partition", "before the first step");
+    require(columns >= 1 && size_ % columns == 0, "rankColumns", columns,
+            "a divisor of the number of ranks, " + std::to_string(size_));
+    if (columns > 1) {
+        require(columnCells > 0, "columnCells", columnCells,
+                "a number of cells > 0 with rankColumns = " + std::to_string(columns) +
+                    " (the ranks of a row split the Scheduler's columns)");
+        require(columns <= numColumns, "rankColumns", columns,
+                "at most the number of columns of " + std::to_string(columnCells) + " cells along the first axis, " +
+                    std::to_string(numColumns) + " here (smaller columnCells, or fewer rank columns)");
+    }
+    cols_ = columns;
+    columnCells_ = columnCells;
+    numColumns_ = numColumns;
+    n_ = n;
+}
+
 template <int D>
-void Distribution<D>::partition(MaterialPoints<D>& P, const std::vector<int>& stripOf, int numStrips, int S, int nLast)
+void Distribution<D>::partition(MaterialPoints<D>& P, const std::vector<int>& stripOf, int numStrips, int S, int nLast,
+                                const std::vector<int>& columnOf)
 {
     checkStrips(numStrips);
     std::vector<double> count(numStrips, 0.0);
     for (int s : stripOf) ++count[s];
-    const std::vector<int> first = balancedRanges(count, size_);
-    setRanges(first, S, nLast);
+    const std::vector<int> first = balancedRanges(count, rows());
+    std::vector<int> firstCol;
+    if (cols_ > 1) {
+        std::vector<double> perColumn(numColumns_, 0.0);
+        for (int c : columnOf) ++perColumn[c];
+        firstCol = balancedRanges(perColumn, cols_);
+    }
+    setRanges(first, S, nLast, firstCol);
     // Keep this rank's points, numbered by their index in the whole scene.
     std::vector<int> mine;
     for (int p = 0; p < static_cast<int>(stripOf.size()); ++p)
-        if (stripOf[p] >= first[rank_] && stripOf[p] < first[rank_ + 1]) mine.push_back(p);
+        if (rankOf(stripOf[p], cols_ > 1 ? columnOf[p] : 0) == rank_) mine.push_back(p);
     P.distributed = true;
     P.globalId.resize(P.size());
     for (std::size_t p = 0; p < P.size(); ++p) P.globalId[p] = static_cast<std::int32_t>(p);
@@ -41,65 +67,89 @@ void Distribution<D>::partition(MaterialPoints<D>& P, const std::vector<int>& st
 
 template <int D> void Distribution<D>::checkStrips(int numStrips) const
 {
-    if (numStrips < size_)
-        require(false, "number of ranks", size_,
+    if (numStrips < rows())
+        require(false, cols_ > 1 ? "number of rows of ranks" : "number of ranks", rows(),
                 "at most the number of strips of " + std::to_string(Scheduler<D>::stripWidth) +
-                    " cells along the last axis, " + std::to_string(numStrips) + " here (a smaller h, or fewer ranks)");
+                    " cells along the last axis, " + std::to_string(numStrips) +
+                    " here (a smaller h, or fewer ranks" + (cols_ > 1 ? ", or more rank columns)" : ")"));
 }
 
 template <int D>
-void Distribution<D>::partitionHeld(MaterialPoints<D>& P, const std::vector<int>& stripOf, int numStrips, int S, int nLast)
+void Distribution<D>::partitionHeld(MaterialPoints<D>& P, const std::vector<int>& stripOf, int numStrips, int S, int nLast,
+                                    const std::vector<int>& columnOf)
 {
     checkStrips(numStrips);
     std::vector<double> count(numStrips, 0.0);
     for (int s : stripOf) ++count[s];
     t_->sum(count.data(), numStrips);  // (whole numbers: exact in any order)
-    const std::vector<int> first = balancedRanges(count, size_);
-    sendToOwners(P, stripOf, first);
-    setRanges(first, S, nLast);
+    const std::vector<int> first = balancedRanges(count, rows());
+    if (cols_ == 1) {
+        sendToOwners(P, stripOf, first);
+        setRanges(first, S, nLast);
+        return;
+    }
+    std::vector<double> perColumn(numColumns_, 0.0);
+    for (std::size_t p = 0; p < stripOf.size(); ++p)
+        if (stripOf[p] >= 0) ++perColumn[columnOf[p]];
+    t_->sum(perColumn.data(), numColumns_);
+    setRanges(first, S, nLast, balancedRanges(perColumn, cols_));
+    std::vector<int> to(stripOf.size());
+    for (std::size_t p = 0; p < stripOf.size(); ++p) to[p] = stripOf[p] < 0 ? rank_ : rankOf(stripOf[p], columnOf[p]);
+    sendPoints(P, to, false);
 }
 
 template <int D>
 void Distribution<D>::sendToOwners(MaterialPoints<D>& P, const std::vector<int>& strip, const std::vector<int>& first)
 {
+    std::vector<int> to(P.size());
+    for (std::size_t p = 0; p < P.size(); ++p)
+        to[p] = strip[p] < 0 ? rank_
+                             : static_cast<int>(std::upper_bound(first.begin(), first.end(), strip[p]) - first.begin()) - 1;
+    sendPoints(P, to, false);
+}
+
+template <int D> void Distribution<D>::sendPoints(MaterialPoints<D>& P, const std::vector<int>& to, bool neighboursOnly)
+{
     const int n = static_cast<int>(P.size());
-    std::vector<std::vector<int>> leaving(size_);
+    // The messages: one per neighbour in the grid of ranks, or one per rank (this one's empty).
+    const int nOut = neighboursOnly ? static_cast<int>(neighbours_.size()) : size_;
+    const auto slot = [&](int r) {
+        return neighboursOnly ? static_cast<int>(std::lower_bound(neighbours_.begin(), neighbours_.end(), r) - neighbours_.begin()) : r;
+    };
+    std::vector<std::vector<int>> leaving(nOut);
     std::vector<int> keep;
     keep.reserve(n);
-    for (int p = 0; p < n; ++p) {
-        const int to = strip[p] < 0 ? rank_
-                                    : static_cast<int>(std::upper_bound(first.begin(), first.end(), strip[p]) - first.begin()) - 1;
-        (to == rank_ ? keep : leaving[to]).push_back(p);
-    }
-    std::vector<std::vector<char>> out(size_);
-    for (int r = 0; r < size_; ++r) {
-        if (r == rank_) continue;
+    for (int p = 0; p < n; ++p) (to[p] == rank_ ? keep : leaving[slot(to[p])]).push_back(p);
+    std::vector<std::vector<char>> out(nOut);
+    for (int i = 0; i < nOut; ++i) {
+        if (!neighboursOnly && i == rank_) continue;
         Bytes b;
-        b.put(static_cast<int>(leaving[r].size()));
+        b.put(static_cast<int>(leaving[i].size()));
         P.forEachArray([&](const char* name, auto& a) {
             if (!P.carries(name)) return;
-            for (int p : leaving[r]) b.put(a[p]);
+            for (int p : leaving[i]) b.put(a[p]);
         });
-        out[r].swap(b.data);
+        out[i].swap(b.data);
     }
-    std::vector<std::vector<char>> in = t_->allToAll(out);
-    std::vector<Bytes> from(size_);
-    std::vector<int> arriving(size_, 0);
+    std::vector<std::vector<char>> in = neighboursOnly ? t_->neighbourExchange(neighbours_, out) : t_->allToAll(out);
+    std::vector<Bytes> from(nOut);
+    std::vector<int> arriving(nOut, 0);
     std::size_t total = keep.size();
-    for (int r = 0; r < size_; ++r) {
-        if (r == rank_ || in[r].empty()) continue;
-        from[r].data.swap(in[r]);
-        arriving[r] = from[r].get<int>();
-        total += arriving[r];
+    for (int i = 0; i < nOut; ++i) {
+        if ((!neighboursOnly && i == rank_) || in[i].empty()) continue;
+        from[i].data.swap(in[i]);
+        arriving[i] = from[i].get<int>();
+        total += arriving[i];
     }
+    if (total == keep.size() && keep.size() == P.size()) return;  // nothing left, nothing came
     P.forEachArray([&](const char* name, auto& a) {
         if (!P.carries(name)) return;
         using T = typename std::decay_t<decltype(a)>::value_type;
         std::vector<T> merged;
         merged.reserve(total);
         for (int p : keep) merged.push_back(a[p]);
-        for (int r = 0; r < size_; ++r)
-            for (int k = 0; k < arriving[r]; ++k) merged.push_back(from[r].get<T>());
+        for (int i = 0; i < nOut; ++i)
+            for (int k = 0; k < arriving[i]; ++k) merged.push_back(from[i].get<T>());
         a.swap(merged);
     });
     // Sorted by globalId again, as one process numbers them.
@@ -135,10 +185,16 @@ template <int D> std::vector<int> Distribution<D>::balancedRanges(const std::vec
     return first;
 }
 
-template <int D> void Distribution<D>::setRanges(const std::vector<int>& first, int S, int nLast)
+template <int D>
+void Distribution<D>::setRanges(const std::vector<int>& first, int S, int nLast, const std::vector<int>& firstColumns)
 {
-    require(static_cast<int>(first.size()) == size_ + 1, "strip ranges", first.size(), "one per rank, and the end");
+    require(static_cast<int>(first.size()) == rows() + 1, "strip ranges", first.size(),
+            "one per row of ranks, and the end: " + std::to_string(rows() + 1));
+    require(cols_ == 1 ? firstColumns.empty() : static_cast<int>(firstColumns.size()) == cols_ + 1, "column ranges",
+            firstColumns.size(), cols_ == 1 ? std::string("none with one column of ranks")
+                                            : "one per column of ranks, and the end: " + std::to_string(cols_ + 1));
     first_ = first;
+    firstCol_ = firstColumns;
     setRangesOf(S, nLast);
 }
 
@@ -147,22 +203,38 @@ template <int D> void Distribution<D>::setRangesOf(int S, int nLast)
     constexpr int W = Scheduler<D>::stripWidth;
     S_ = S;
     nLast_ = nLast;
-    const int a = first_[rank_], b = first_[rank_ + 1];
+    const int a = first_[row()], b = first_[row() + 1];
     // A strip s holds the points of base node s W .. s W + W - 1, which reach up to S - 1 planes
     // further.
     planeLo_ = a * W;
     planeHi_ = std::min(nLast, b * W + S - 1);
-    ownedLo_ = rank_ == 0 ? 0 : planeLo_;
-    ownedHi_ = rank_ == size_ - 1 ? nLast : b * W;
+    ownedLo_ = row() == 0 ? 0 : planeLo_;
+    ownedHi_ = row() == rows() - 1 ? nLast : b * W;
     leftShared_ = planeLo_ + S - 1;
     rightShared_ = b * W;
+    if (cols_ == 1) return;
+    // The same along the first axis for the rank's Scheduler columns; its neighbours in the grid
+    // of ranks; the passes of the scatters.
+    const int c = column(), ca = firstCol_[c], cb = firstCol_[c + 1];
+    colLo_ = ca * columnCells_;
+    colHi_ = std::min(n_[0], cb * columnCells_ + S - 1);
+    ownedColLo_ = c == 0 ? 0 : colLo_;
+    ownedColHi_ = c == cols_ - 1 ? n_[0] : cb * columnCells_;
+    neighbours_.clear();
+    for (int r = std::max(0, row() - 1); r <= std::min(rows() - 1, row() + 1); ++r)
+        for (int k = std::max(0, c - 1); k <= std::min(cols_ - 1, c + 1); ++k)
+            if (r * cols_ + k != rank_) neighbours_.push_back(r * cols_ + k);
+    Blocks blocks;
+    blocks.strips = first_;
+    blocks.columns = firstCol_;
+    chain_ = std::make_unique<ScatterChain<D>>(n_, S, W, columnCells_, blocks, rank_);
 }
 
 template <int D> bool Distribution<D>::writesFirst(int side) const
 {
     // At the boundary before strip B, the strip B - 1 (left rank) and B (right rank) share
     // planes; colour 0 (even strips) writes first.
-    const int B = side > 0 ? first_[rank_ + 1] : first_[rank_];
+    const int B = side > 0 ? first_[row() + 1] : first_[row()];
     const bool leftFirst = (B - 1) % 2 == 0;
     return side > 0 ? leftFirst : !leftFirst;
 }
@@ -210,8 +282,44 @@ template <int D> void Distribution<D>::afterFirstColour(const Grid<D>& g, const 
     setPlanes(g, rightShared_, fromRight, fields);
 }
 
+template <int D> void Distribution<D>::afterPhase(int k, int phases, const Grid<D>& g, const std::vector<NodeField>& fields)
+{
+    if (cols_ > 1)
+        passChain(k, g, fields);
+    else if (k == phases / 2 - 1)
+        afterFirstColour(g, fields);
+}
+
+template <int D> void Distribution<D>::passChain(int k, const Grid<D>& g, const std::vector<NodeField>& fields)
+{
+    (void)g;
+    const auto slot = [&](int r) {
+        return static_cast<int>(std::lower_bound(neighbours_.begin(), neighbours_.end(), r) - neighbours_.begin());
+    };
+    std::vector<std::vector<char>> out(neighbours_.size());
+    for (const auto& pass : chain_->sends(k)) {
+        Bytes b;
+        for (const NodeField& f : fields)
+            for (int I : pass.nodes)
+                for (int c = 0; c < f.width; ++c) b.put(f.data[static_cast<std::size_t>(I) * f.width + c]);
+        out[slot(pass.rank)].swap(b.data);
+    }
+    std::vector<std::vector<char>> in = t_->neighbourExchange(neighbours_, out);
+    for (const auto& pass : chain_->receives(k)) {
+        Bytes b;
+        b.data.swap(in[slot(pass.rank)]);
+        for (const NodeField& f : fields)
+            for (int I : pass.nodes)
+                for (int c = 0; c < f.width; ++c) f.data[static_cast<std::size_t>(I) * f.width + c] = b.get<double>();
+    }
+}
+
 template <int D> void Distribution<D>::finishScatter(const Grid<D>& g, const std::vector<NodeField>& fields)
 {
+    if (cols_ > 1) {
+        passChain(chain_->numPhases() - 1, g, fields);
+        return;
+    }
     std::vector<char> toLeft, toRight, fromLeft, fromRight;
     if (rank_ > 0 && !writesFirst(-1)) toLeft = planes(g, planeLo_, leftShared_, fields);
     if (rank_ < size_ - 1 && !writesFirst(1)) toRight = planes(g, rightShared_, rightShared_ + S_ - 1, fields);

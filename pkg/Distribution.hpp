@@ -24,6 +24,8 @@
 // double) carries the bytes.
 #pragma once
 #include <algorithm>
+#include <array>
+#include <climits>
 #include <cstdint>
 #include <cstring>
 #include <memory>
@@ -35,6 +37,7 @@
 #include "Grid.hpp"
 #include "MaterialPoints.hpp"
 #include "PhantomNodes.hpp"
+#include "ScatterChain.hpp"
 
 namespace emp {
 
@@ -56,6 +59,10 @@ public:
     /// Sends toEach[r] to rank r (one buffer per rank, this one's included) and returns what
     /// each rank sent to this one, in rank order. Every rank calls it.
     virtual std::vector<std::vector<char>> allToAll(const std::vector<std::vector<char>>& toEach) = 0;
+    /// Sends out[i] to rank ranks[i] and returns what each of them sent to this one, in the same
+    /// order. The relation is symmetric: every rank named here names this one in its own call.
+    virtual std::vector<std::vector<char>> neighbourExchange(const std::vector<int>& ranks,
+                                                             const std::vector<std::vector<char>>& out) = 0;
 };
 
 /// A byte buffer written and read in the same order: plain values (numbers, fixed-size Eigen
@@ -115,20 +122,51 @@ public:
     Transport& transport() { return *t_; }
     bool partitioned() const { return !first_.empty(); }
 
+    /// A decomposition in two directions (doc/parallel.md): the ranks form `columns` columns
+    /// along the first axis and size() / columns rows along the last; rank r is in row
+    /// r / columns and column r % columns, and holds a range of strips and one of the
+    /// Scheduler's columns (columnCells cells each, numColumns of them on a grid of n0 nodes
+    /// along the first axis); the scatters hand their partial sums on as ScatterChain says.
+    /// Before the partition; columns = 1 (the default): strips only, as before. Throws
+    /// ParameterError for a number of columns that does not divide the ranks or exceeds the
+    /// Scheduler's columns.
+    void setColumns(int columns, int columnCells, int numColumns, const std::array<int, D>& n);
+    int rankColumns() const { return cols_; }
+    int row() const { return rank_ / cols_; }
+    int rows() const { return size_ / cols_; }
+    int column() const { return rank_ % cols_; }
+    /// The first Scheduler column of every rank column, and their number at the end.
+    const std::vector<int>& firstColumns() const { return firstCol_; }
+    /// Node indices along the first axis this rank works on, [lo, hi), and those it owns.
+    int columnLo() const { return colLo_; }
+    int columnHi() const { return colHi_; }
+    int ownedColumnLo() const { return ownedColLo_; }
+    int ownedColumnHi() const { return ownedColHi_; }
+    /// The rank of the tile (strip s, Scheduler column c).
+    int rankOf(int s, int c) const
+    {
+        return Blocks::rangeOf(first_, s) * cols_ + (cols_ > 1 ? Blocks::rangeOf(firstCol_, c) : 0);
+    }
+
     /// Chooses the strip ranges (every rank holds every point now, and the same ones) so that
     /// the ranks hold nearly equal numbers of points, and keeps this rank's points, numbering
     /// them by their index now (globalId). stripOf[p] is point p's strip, numStrips their
     /// number, S the kernel's support, nLast the nodes along the last axis. Throws
     /// ParameterError when there are fewer strips than ranks.
-    void partition(MaterialPoints<D>& P, const std::vector<int>& stripOf, int numStrips, int S, int nLast);
+    /// With columns (setColumns), columnOf[p] is point p's Scheduler column, and the rows and
+    /// the columns of ranks are balanced apart.
+    void partition(MaterialPoints<D>& P, const std::vector<int>& stripOf, int numStrips, int S, int nLast,
+                   const std::vector<int>& columnOf = {});
     /// The same choice when the points were distributed at set-up (Solver::distributeSetup):
     /// every rank holds a share of the points, sorted by globalId, and stripOf[p] is its point
     /// p's strip. The counts per strip are summed over the ranks, the ranges chosen as in
     /// partition(), and every point sent to the rank whose range holds its strip. Every rank
     /// calls it; the ranges and each rank's points are those partition() gives.
-    void partitionHeld(MaterialPoints<D>& P, const std::vector<int>& stripOf, int numStrips, int S, int nLast);
-    /// The same ranges as another run's (a restart): first[r] is rank r's first strip.
-    void setRanges(const std::vector<int>& first, int S, int nLast);
+    void partitionHeld(MaterialPoints<D>& P, const std::vector<int>& stripOf, int numStrips, int S, int nLast,
+                       const std::vector<int>& columnOf = {});
+    /// The same ranges as another run's (a restart): first[r] is rank r's first strip (with
+    /// columns, rank row r's; firstColumns() as firstColumns()).
+    void setRanges(const std::vector<int>& first, int S, int nLast, const std::vector<int>& firstColumns = {});
     const std::vector<int>& firstStrips() const { return first_; }
     /// The first strip of each of `ranks` ranges (and numStrips at the end) that split the points
     /// counted per strip in `count` nearly equally, at least one strip each.
@@ -143,6 +181,7 @@ public:
     /// ranges changed; the same on every rank. Every rank calls it.
     template <class StripOf>
     bool rebalance(MaterialPoints<D>& P, StripOf&& stripOf, double tolerance, int minStrips);
+    // (With columns of ranks nothing is rebalanced yet: doc/parallel.md, "Limits".)
     /// The largest number of points on one rank over the mean, from the last count of rebalance
     /// (after it moved points, the new ranges'); 0 before any.
     double imbalance() const { return imbalance_; }
@@ -161,13 +200,21 @@ public:
     /// Whether node plane i is shared with the left (-1) or right (+1) neighbour, else 0.
     int sharedSide(int plane) const
     {
-        if (rank_ > 0 && plane < leftShared_) return -1;
-        if (rank_ < size_ - 1 && plane >= rightShared_) return 1;
+        if (row() > 0 && plane < leftShared_) return -1;
+        if (row() < rows() - 1 && plane >= rightShared_) return 1;
         return 0;
     }
 
     /// Between the two colours of a scatter: the rank that wrote a shared plane first hands it on.
     void afterFirstColour(const Grid<D>& g, const std::vector<NodeField>& fields);
+    /// After phase k of the `phases` of a scatter (Scheduler::numPhases), but the last: with
+    /// columns, the partial sums ScatterChain names go on; without, afterFirstColour between the
+    /// strips' colours.
+    void afterPhase(int k, int phases, const Grid<D>& g, const std::vector<NodeField>& fields);
+    /// Migration with columns: every point whose tile (tileOf(x): strip, column) is another
+    /// rank's goes there (a neighbour in the grid of ranks; else SimulationError on every rank),
+    /// the points sorted by globalId.
+    template <class TileOf> void migrateBlocks(MaterialPoints<D>& P, TileOf&& tileOf);
     /// After a scatter: the rank that wrote a shared plane last hands the totals back.
     void finishScatter(const Grid<D>& g, const std::vector<NodeField>& fields);
     /// Applies the serial contributions to shared planes (left, right) of this rank and of its
@@ -199,6 +246,11 @@ private:
     /// off the grid, strip < 0, stays), from any rank to any rank, and keeps the points sorted
     /// by globalId. Every rank calls it.
     void sendToOwners(MaterialPoints<D>& P, const std::vector<int>& strip, const std::vector<int>& first);
+    /// Sends every point p with to[p] != rank() to rank to[p], to the neighbours in the grid of
+    /// ranks only (neighbours_) or to any rank, and keeps the points sorted by globalId.
+    void sendPoints(MaterialPoints<D>& P, const std::vector<int>& to, bool neighboursOnly);
+    /// The passes of ScatterChain after phase k: node values to and from the neighbours.
+    void passChain(int k, const Grid<D>& g, const std::vector<NodeField>& fields);
     /// Throws ParameterError when there are fewer strips than ranks.
     void checkStrips(int numStrips) const;
     std::vector<char> planes(const Grid<D>& g, int lo, int hi, const std::vector<NodeField>& fields) const;
@@ -214,6 +266,13 @@ private:
     std::vector<int> first_;  ///< first strip of every rank, and the number of strips at the end
     int planeLo_ = 0, planeHi_ = 0, ownedLo_ = 0, ownedHi_ = 0, leftShared_ = 0, rightShared_ = 0;
     int S_ = 0, nLast_ = 0;
+    // Columns of ranks (setColumns): their Scheduler columns and node columns, the neighbours
+    // in the grid of ranks, the scatters' passes.
+    int cols_ = 1, columnCells_ = 0, numColumns_ = 1;
+    std::array<int, D> n_{};
+    std::vector<int> firstCol_, neighbours_;
+    int colLo_ = 0, colHi_ = INT_MAX, ownedColLo_ = 0, ownedColHi_ = INT_MAX;
+    std::unique_ptr<ScatterChain<D>> chain_;
     double imbalance_ = 0;
 };
 
@@ -285,9 +344,29 @@ void Distribution<D>::migrate(MaterialPoints<D>& P, StripOf&& stripOf)
 }
 
 template <int D>
+template <class TileOf>
+void Distribution<D>::migrateBlocks(MaterialPoints<D>& P, TileOf&& tileOf)
+{
+    const int n = static_cast<int>(P.size());
+    std::vector<int> to(n);
+    double far = 0;
+    for (int p = 0; p < n; ++p) {
+        const std::array<int, 2> t = tileOf(P.x[p]);
+        to[p] = t[0] < 0 ? rank_ : rankOf(t[0], t[1]);
+        if (to[p] != rank_ && !std::binary_search(neighbours_.begin(), neighbours_.end(), to[p])) far = 1;
+    }
+    t_->max(&far, 1);
+    if (far > 0)
+        throw SimulationError("EigenMPM: a point moved past a whole neighbouring rank's tiles in one step; "
+                              "use fewer ranks or a smaller dt");
+    sendPoints(P, to, true);
+}
+
+template <int D>
 template <class StripOf>
 bool Distribution<D>::rebalance(MaterialPoints<D>& P, StripOf&& stripOf, double tolerance, int minStrips)
 {
+    if (cols_ > 1) return false;
     const int numStrips = first_.back(), n = static_cast<int>(P.size());
     std::vector<int> strip(n);
     std::vector<double> count(numStrips, 0.0);

@@ -49,8 +49,18 @@ template <int D> struct GridState {
     double dt;
     const PointSupport<D>* support = nullptr;  ///< the points' supports (set after the forces)
     /// The nodes [ownedLo, ownedHi) this process owns: a sum over nodes (a reaction) counts only
-    /// those, so that a distributed run (Distribution.hpp) counts every node once.
-    int ownedLo = 0, ownedHi = INT_MAX;
+    /// those, so that a distributed run (Distribution.hpp) counts every node once; with columns
+    /// of ranks, only those of them whose index along the first axis is in [ownedColumnLo,
+    /// ownedColumnHi).
+    int ownedLo = 0, ownedHi = INT_MAX, ownedColumnLo = 0, ownedColumnHi = INT_MAX;
+    /// Whether this process owns the regular node I.
+    bool owns(int I) const
+    {
+        if (I < ownedLo || I >= ownedHi) return false;
+        if (ownedColumnLo == 0 && ownedColumnHi == INT_MAX) return true;
+        const int i0 = I % grid.n[0];
+        return i0 >= ownedColumnLo && i0 < ownedColumnHi;
+    }
 };
 
 template <int D> class GridCondition {

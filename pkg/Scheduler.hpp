@@ -98,9 +98,9 @@ public:
 
     /// Calls f(slot) for every slot, where f may scatter to the nodes of its point's support:
     /// two colours of strips (each in two colours of columns, with columns), each strip in slot
-    /// order. `between`, when given, runs between the strips' two colours (a distributed run's
-    /// exchange, Distribution.hpp).
-    template <class F> void scatter(int nThreads, F&& f, const std::function<void()>& between = {}) const
+    /// order. `between(k)`, when given, runs after every phase k but the last (a distributed
+    /// run's exchange, Distribution.hpp).
+    template <class F> void scatter(int nThreads, F&& f, const std::function<void(int)>& between = {}) const
     {
         scatterStrips(nThreads, [&](int begin, int end) {
             for (int k = begin; k < end; ++k) f(k);
@@ -112,7 +112,7 @@ public:
     /// scatters: points are independent until they write, so their long chains of dependent
     /// arithmetic (the law's square roots and divisions) overlap in the processor instead of
     /// following each other; the order of the contributions to each node is that of scatter.
-    template <class F> void scatterRuns(int nThreads, int run, F&& f, const std::function<void()>& between = {}) const
+    template <class F> void scatterRuns(int nThreads, int run, F&& f, const std::function<void(int)>& between = {}) const
     {
         scatterStrips(nThreads, [&](int begin, int end) {
             for (int k = begin; k < end; k += run) f(k, std::min(k + run, end));
@@ -122,12 +122,12 @@ public:
     /// The tiles of scatter: calls f(begin, end) with the slot range of every tile (strip, without
     /// columns), the phases (numPhases()) one after the other, each worker the strips of its
     /// range (split()).
-    template <class F> void scatterStrips(int nThreads, F&& f, const std::function<void()>& between = {}) const
+    template <class F> void scatterStrips(int nThreads, F&& f, const std::function<void(int)>& between = {}) const
     {
         const int phases = numPhases();
         for (int phase = 0; phase < phases; ++phase) {
             scatterPhase(phase, nThreads, f);
-            if (phase == phases / 2 - 1 && between) between();
+            if (phase < phases - 1 && between) between(phase);
         }
     }
 

@@ -79,7 +79,15 @@ template <int D, class K> template <class F> void Solver<D, K>::forEachWorkNode(
 {
     // A distributed run's own planes, or all of them; each worker the rows of its strips.
     const int lo = dist_ ? dist_->planeLo() : 0, hi = dist_ ? dist_->planeHi() : grid_.n[D - 1];
-    schedule_.forEachNodeOfRows(lo, hi, grid_.stride[D - 1], nThreads, f);
+    if (dist_ && dist_->rankColumns() > 1) {  // and of them the node columns of its tiles
+        const int a = dist_->columnLo(), b = dist_->columnHi(), n0 = grid_.n[0];
+        schedule_.forEachNodeOfRows(lo, hi, grid_.stride[D - 1], nThreads, [&](int I) {
+            const int i0 = I % n0;
+            if (i0 >= a && i0 < b) f(I);
+        });
+    } else {
+        schedule_.forEachNodeOfRows(lo, hi, grid_.stride[D - 1], nThreads, f);
+    }
     if (grid_.totalNodes() > grid_.numNodes())  // the cracks' twins
         Scheduler<D>::forEachNodeIn(grid_.numNodes(), grid_.totalNodes(), nThreads, f);
 }
@@ -203,8 +211,8 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
         };
     };
     const std::vector<NodeField> fields{{g.mass.data(), 1}, {g.momentum.data()->data(), D}};
-    std::function<void()> between;
-    if (dist_) between = [&] { dist_->afterFirstColour(g, fields); };
+    std::function<void(int)> between;
+    if (dist_) between = [&](int k) { dist_->afterPhase(k, schedule_.numPhases(), g, fields); };
     if (settings_.transfer == Transfer::apic)
         schedule_.scatter(nThreads, body(std::true_type{}), between);
     else
@@ -575,8 +583,8 @@ template <int D, class K> void Solver<D, K>::stressAndInternalForce(double dt, i
     const Vec<D> gravity = settings_.gravity.head<D>();
     const auto& order = schedule_.order();
     const std::vector<NodeField> fields{{grid_.force.data()->data(), D}};
-    std::function<void()> between;
-    if (dist_) between = [&] { dist_->afterFirstColour(grid_, fields); };
+    std::function<void(int)> between;
+    if (dist_) between = [&](int k) { dist_->afterPhase(k, schedule_.numPhases(), grid_, fields); };
     const auto pass = [&](auto withGravity, auto corotational) {
         schedule_.scatterRuns(nThreads, stressRun, [&](int begin, int end) {
             if constexpr (decltype(corotational)::value) {
@@ -679,6 +687,10 @@ template <int D, class K> void Solver<D, K>::applyConditionsAfterForces(double d
     const Support support(this);
     GridState<D> s{grid_, points_, phantom_, time_ + 0.5 * dt, dt, &support};
     ownedNodes(s.ownedLo, s.ownedHi);
+    if (dist_ && dist_->rankColumns() > 1) {
+        s.ownedColumnLo = dist_->ownedColumnLo();
+        s.ownedColumnHi = dist_->ownedColumnHi();
+    }
     if (dist_) {
         workBefore_.clear();
         for (const auto& c : velocityConditions_) workBefore_.push_back(c->work);
@@ -739,7 +751,12 @@ template <int D, class K> void Solver<D, K>::accumulateExternalWork(double dt)
     ownedNodes(lo, hi);
     const auto gravityOn = [&](int I) { gravityWork_ += dt * g.mass[I] * gravity.dot(g.velocity[I] - 0.5 * dt * g.force[I]); };
     if (!gravity.isZero(0.0)) {
-        for (int I = lo; I < hi; ++I) gravityOn(I);
+        if (dist_ && dist_->rankColumns() > 1) {  // (the owned node columns of those planes)
+            for (int I = lo; I < hi; ++I)
+                if (I % g.n[0] >= dist_->ownedColumnLo() && I % g.n[0] < dist_->ownedColumnHi()) gravityOn(I);
+        } else {
+            for (int I = lo; I < hi; ++I) gravityOn(I);
+        }
         if (dist_)  // the twins of the owned nodes
             for (int t = g.numNodes(); t < g.totalNodes(); ++t)
                 if (twinRegular_[t - g.numNodes()] >= lo && twinRegular_[t - g.numNodes()] < hi) gravityOn(t);

@@ -121,7 +121,11 @@ public:
     /// crack-face contact, several bodies, contact, conditions other than velocity conditions
     /// on nodes, or after the first step unless the solver is a rank's part loaded from its
     /// archive (distributedPart()), which needs the same rank of the same number of ranks.
-    void distribute(std::shared_ptr<Transport> transport);
+    /// rankColumns > 1 splits the ranks in two directions (SolverSettings::columnCells > 0; the
+    /// results are bitwise those of one process with the same columnCells): rankColumns
+    /// columns along the first axis, size / rankColumns rows along the last (doc/parallel.md,
+    /// "Decomposition in two directions"). A rank's part resumes with its archive's columns.
+    void distribute(std::shared_ptr<Transport> transport, int rankColumns = 1);
     /// The same, with the points distributed from the start, so that no rank ever holds the
     /// whole scene (doc/parallel.md, "Memory"): called before any point is added. Each rank
     /// then adds only its share of the points, with the ids one process gives them
@@ -130,7 +134,7 @@ public:
     /// The grid, the mass cut-off and the critical time step are those of one process: every
     /// rank must call initialize() (and what calls it) together. Results are bitwise those of
     /// distribute().
-    void distributeSetup(std::shared_ptr<Transport> transport);
+    void distributeSetup(std::shared_ptr<Transport> transport, int rankColumns = 1);
     /// Set-up of a run distributed at set-up: the `count` points added next are this rank's
     /// share of `total` new points of the whole scene, numbered from numGlobalPoints() + offset on.
     void holdPoints(int offset, int count, int total);
@@ -217,6 +221,8 @@ private:
     // The stages of step(), in order (paper Section 4.1).
     void checkTimeStep(double dt);
     void distributePoints();
+    /// Throws ParameterError when rankColumns_ does not divide `ranks` or needs columns.
+    void checkRankColumns(int ranks) const;
     /// initialize()'s sums over the points of a run distributed at set-up, as one process forms them.
     void initializeHeld(Vec<D>& lo, Vec<D>& hi, double& meanMass);
     /// Throws ParameterError for what a distributed run does not have yet (distribute()).
@@ -334,7 +340,8 @@ private:
     int nextId_ = 0, heldEnd_ = 0;  ///< ids of the points holdPoints announced
     /// A rank's part loaded from an archive (loadState): its rank, the ranks and their strips.
     int resumeRank_ = 0, resumeRanks_ = 1;
-    std::vector<int> resumeStrips_;
+    std::vector<int> resumeStrips_, resumeColumns_;
+    int rankColumns_ = 1;  ///< columns of ranks along the first axis (distribute)
     double rebalanceTolerance_ = 1.25;
     int rebalancePeriod_ = 100, rebalances_ = 0;
     std::vector<NodeRecord<D>> recordsLeft_, recordsRight_;

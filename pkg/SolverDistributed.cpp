@@ -30,22 +30,34 @@ template <int D, class K> void Solver<D, K>::distributePoints()
         erosion_ ? std::max(1, static_cast<int>(std::ceil((erosion_->settings().kappa + 2 * grid_.h) /
                                                           (Scheduler<D>::stripWidth * grid_.h))))
                  : 1;
+    const auto columnOf = [&](const Vec<D>& x) { return schedule_.template columnOf<K>(x, grid_); };
     if (!dist_->partitioned()) {
-        std::vector<int> strips(points_.size());
+        const int cells = settings_.columnCells, numColumns = cells > 0 ? (grid_.n[0] - S) / cells + 1 : 1;
+        dist_->setColumns(rankColumns_, cells, numColumns, grid_.n);
+        std::vector<int> strips(points_.size()), columns;
         for (std::size_t p = 0; p < points_.size(); ++p) strips[p] = stripOf(points_.x[p]);
+        if (rankColumns_ > 1) {
+            columns.resize(points_.size());
+            for (std::size_t p = 0; p < points_.size(); ++p) columns[p] = strips[p] >= 0 ? columnOf(points_.x[p]) : 0;
+        }
         const int numStrips = Scheduler<D>::template numStrips<K>(grid_);
         if (heldSetup_) {
-            dist_->partitionHeld(points_, strips, numStrips, S, grid_.n[D - 1]);
+            dist_->partitionHeld(points_, strips, numStrips, S, grid_.n[D - 1], columns);
         } else {
             globalPoints_ = static_cast<int>(points_.size());
-            dist_->partition(points_, strips, numStrips, S, grid_.n[D - 1]);
+            dist_->partition(points_, strips, numStrips, S, grid_.n[D - 1], columns);
         }
         int thinnest = numStrips;
-        for (int r = 0; r < dist_->size(); ++r)
+        for (int r = 0; r < dist_->rows(); ++r)
             thinnest = std::min(thinnest, dist_->firstStrips()[r + 1] - dist_->firstStrips()[r]);
         require(thinnest >= minStrips, "number of ranks", dist_->size(),
                 "one whose thinnest range of strips (" + std::to_string(thinnest) + " x " +
                     std::to_string(Scheduler<D>::stripWidth) + " cells) holds kappa + 2 h (fewer ranks)");
+    } else if (rankColumns_ > 1) {
+        dist_->migrateBlocks(points_, [&](const Vec<D>& x) {
+            const int s = stripOf(x);
+            return std::array<int, 2>{s, s >= 0 ? columnOf(x) : 0};
+        });
     } else {
         dist_->migrate(points_, stripOf);
         if (rebalancePeriod_ > 0 && steps_ % rebalancePeriod_ == 0 &&
@@ -111,19 +123,25 @@ template <int D, class K> void Solver<D, K>::transportCracks(double dt)
     dist_->restoreBox(grid_, lo, hi);
 }
 
-template <int D, class K> void Solver<D, K>::distribute(std::shared_ptr<Transport> transport)
+template <int D, class K> void Solver<D, K>::distribute(std::shared_ptr<Transport> transport, int rankColumns)
 {
     require(!dist_ && (steps_ == 0 || points_.distributed), "distribute", "called after the first step or twice",
             "once, before the first step (or to resume a rank's part loaded from its archive)");
+    rankColumns_ = points_.distributed && !resumeColumns_.empty() ? static_cast<int>(resumeColumns_.size()) - 1 : rankColumns;
+    require(rankColumns == 1 || rankColumns == rankColumns_, "rankColumns", rankColumns,
+            std::to_string(rankColumns_) + ", the columns of ranks of the run this rank's part was saved from");
     checkDistributable();
     initialize();
     auto d = std::make_shared<Distribution<D>>(std::move(transport));
+    checkRankColumns(d->size());
     if (points_.distributed) {
         if (d->size() != resumeRanks_ || d->rank() != resumeRank_)
             require(false, "number of ranks", d->size(),
                     std::to_string(resumeRanks_) + ": this is the archive of rank " + std::to_string(resumeRank_) +
                         " of a run on " + std::to_string(resumeRanks_) + " ranks; resume it with as many");
-        d->setRanges(resumeStrips_, S, grid_.n[D - 1]);
+        const int cells = settings_.columnCells, numColumns = cells > 0 ? (grid_.n[0] - S) / cells + 1 : 1;
+        d->setColumns(rankColumns_, cells, numColumns, grid_.n);
+        d->setRanges(resumeStrips_, S, grid_.n[D - 1], resumeColumns_);
     }
     dist_ = d;
     dist_->setPhantomNodes(&phantom_);
@@ -136,13 +154,15 @@ template <int D, class K> void Solver<D, K>::distribute(std::shared_ptr<Transpor
     }
 }
 
-template <int D, class K> void Solver<D, K>::distributeSetup(std::shared_ptr<Transport> transport)
+template <int D, class K> void Solver<D, K>::distributeSetup(std::shared_ptr<Transport> transport, int rankColumns)
 {
     require(!dist_ && steps_ == 0 && points_.size() == 0 && !initialized_, "distributeSetup",
             "called after points were added, the grid was built or the run was distributed",
             "once, on a new solver, before any point is added");
+    rankColumns_ = rankColumns;
     checkDistributable();
     dist_ = std::make_shared<Distribution<D>>(std::move(transport));
+    checkRankColumns(dist_->size());
     dist_->setPhantomNodes(&phantom_);
     heldSetup_ = true;
     points_.distributed = true;
@@ -229,8 +249,27 @@ template <int D, class K> void Solver<D, K>::setRebalance(double tolerance, int 
     rebalancePeriod_ = period;
 }
 
+template <int D, class K> void Solver<D, K>::checkRankColumns(int ranks) const
+{
+    require(rankColumns_ >= 1 && ranks % rankColumns_ == 0, "rankColumns", rankColumns_,
+            "a divisor of the number of ranks, " + std::to_string(ranks));
+    require(rankColumns_ == 1 || settings_.columnCells > 0, "columnCells", settings_.columnCells,
+            "a number of cells > 0 with rankColumns = " + std::to_string(rankColumns_) +
+                " (the ranks of a row split the scheduler's columns)");
+}
+
 template <int D, class K> void Solver<D, K>::checkDistributable() const
 {
+    if (rankColumns_ > 1) {  // (what the decomposition in two directions does not have yet)
+        const std::string cols = " with rankColumns = " + std::to_string(rankColumns_) +
+                                 "; a decomposition in two directions (doc/parallel.md) does not have it yet: "
+                                 "use rankColumns = 1";
+        require(!erosion_, "eigenerosion", "attached", "none" + cols);
+        require(phantom_.empty(), "pre-existing cracks", phantom_.numCracks(), "none" + cols);
+        require(tractions_.empty(), "tractions", tractions_.size(), "none" + cols);
+        for (const auto& c : velocityConditions_)
+            require(c->points.empty(), "velocity condition on points", c->points.size(), "conditions on nodes only" + cols);
+    }
     const std::string not_ = "; a distributed run (doc/parallel.md) does not have it yet: run on one process";
     require(!points_.bodies, "bodies", "several", "one" + not_);
     require(!contact_, "contact with YADE bodies", "attached", "none" + not_);
@@ -247,11 +286,12 @@ template <int D, class K> void Solver<D, K>::checkDistributable() const
     template void Solver<D, K>::ownedNodes(int&, int&) const;                                     \
     template void Solver<D, K>::addNodeForce(int, const Vec<D>&, std::int64_t, std::int64_t);     \
     template void Solver<D, K>::transportCracks(double);                                          \
-    template void Solver<D, K>::distribute(std::shared_ptr<Transport>);                           \
-    template void Solver<D, K>::distributeSetup(std::shared_ptr<Transport>);                      \
+    template void Solver<D, K>::distribute(std::shared_ptr<Transport>, int);                      \
+    template void Solver<D, K>::distributeSetup(std::shared_ptr<Transport>, int);                 \
     template void Solver<D, K>::holdPoints(int, int, int);                                        \
     template void Solver<D, K>::initializeHeld(Vec<D>&, Vec<D>&, double&);                         \
     template void Solver<D, K>::checkDistributable() const;                                       \
+    template void Solver<D, K>::checkRankColumns(int) const;                                      \
     template void Solver<D, K>::setRebalance(double, int);
 EMP_SOLVER_CONFIGURATIONS(EMP_INSTANTIATE)
 #undef EMP_INSTANTIATE

@@ -14,7 +14,7 @@ constexpr std::uint32_t kVersion = 7;  // 2: transfer, stress update, energy dia
                                        // 4: bodies in one grid (point body ids, their friction); 5: a rank's part
                                        // of a distributed run (its flag, point ids, the ranks' strips); 6: the
                                        // points' reference positions of a run distributed at set-up; 7: the
-                                       // scheduler's columns
+                                       // scheduler's columns, and a distributed run's columns of ranks
 }  // namespace
 
 StateHeader readStateHeader(std::istream& is)
@@ -127,6 +127,7 @@ template <int D, class K> void Solver<D, K>::saveState(std::ostream& os) const
     w.value(dist_ ? dist_->rank() : 0);
     w.value(dist_ ? dist_->size() : 1);
     w.array(dist_ ? dist_->firstStrips() : std::vector<int>{});
+    w.array(dist_ ? dist_->firstColumns() : std::vector<int>{});  // (version 7: the columns of ranks)
     w.string("end");
     if (!os) throw SimulationError("EigenMPM: writing the solver state failed");
 }
@@ -259,6 +260,7 @@ template <int D, class K> std::shared_ptr<Solver<D, K>> Solver<D, K>::loadState(
         s->resumeRank_ = r.value<int>();
         s->resumeRanks_ = r.value<int>();
         r.array(s->resumeStrips_);
+        if (h.version >= 7) r.array(s->resumeColumns_);
         if (s->points_.distributed != (s->resumeRanks_ > 1 || !s->resumeStrips_.empty()))
             r.fail("a distribution section that does not match its points");
     }

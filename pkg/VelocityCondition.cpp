@@ -33,7 +33,7 @@ template <int D> void VelocityCondition<D>::afterForces(GridState<D>& s)
     auto& g = s.grid;
     reaction.setZero();
     forEachConstrained(s.phantom, [&](int I, int regular) {
-        const bool owned = regular >= s.ownedLo && regular < s.ownedHi;
+        const bool owned = s.owns(regular);
         for (int d = 0; d < D; ++d) {
             if (!(mask & (1u << d))) continue;
             const double applied = (g.mass[I] * vbar[d] - g.momentum[I][d]) / s.dt;

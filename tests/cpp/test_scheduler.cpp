@@ -119,7 +119,10 @@ TEST(Scheduler, ScatterRunsEveryStripOnceInSlotOrderColourZeroFirst)
                 if ((s % 2 == 1) != between.load()) wrong = true;  // colour 1 before the hook, or 0 after
                 if (next[s] >= 0 && k != next[s]) wrong = true;  // a strip's slots in order
                 next[s] = k + 1;
-            }, [&] { between = true; });
+            }, [&](int phase) {
+                EXPECT_EQ(phase, 0);
+                between = true;
+            });
             EXPECT_FALSE(wrong.load()) << binThreads << " workers binned, " << threads << " threads";
             for (std::size_t k = 0; k < visits.size(); ++k) ASSERT_EQ(visits[k], 1) << "slot " << k;
         }
@@ -187,7 +190,9 @@ TEST(Scheduler, ScatterWithColumnsGivesEveryNodeItsContributionsInOneOrderWhatev
                 if ((s % 2 == 1) != between.load()) wrong = true;
                 for (int i = b0; i < b0 + K::S; ++i)
                     for (int j = b1; j < b1 + K::S; ++j) writers[j * sc.g.stride[1] + i].push_back(k);
-            }, [&] { between = true; });
+            }, [&](int phase) {
+                if (phase == 1) between = true;  // (after the even strips' two colours of columns)
+            });
             EXPECT_FALSE(wrong.load()) << binThreads << " workers binned, " << threads << " threads";
             for (std::size_t k = 0; k < visits.size(); ++k) ASSERT_EQ(visits[k], 1) << "slot " << k;
             for (const auto& w : writers) {

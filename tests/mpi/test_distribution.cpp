@@ -41,12 +41,12 @@ struct Outcome {
 /// Runs `steps` steps of the scene on one process and distributed; compares every point.
 template <int D, class K>
 Outcome compare(const emp::SolverSettings& settings, const Build<D, K>& build, int steps, double dtFraction,
-                int threads = 1)
+                int threads = 1, int rankColumns = 1)
 {
     emp::Solver<D, K> one(settings), dist(settings);
     build(one);
     build(dist);
-    dist.distribute(transport());
+    dist.distribute(transport(), rankColumns);
     const double dt = dtFraction * one.criticalTimeStep();
     Outcome o;
     std::size_t firstCount = 0;
@@ -306,6 +306,107 @@ TEST(Distribution, VelocityConditionsOnPointsAcrossRanks)
     };
     const auto o = compare<2, emp::GimpKernel>(emptest::typicalSettings(1e-3), build, 300, 0.5);
     EXPECT_EQ(o.differing, 0);
+}
+
+// A decomposition in two directions (ScatterChain.hpp): the ranks in a grid of rows along the
+// last axis and columns along the first. Against one process with the same columnCells.
+
+/// Two rows of two ranks on 4 ranks; else one row, every rank a column of its own.
+int rankColumns() { return transport()->size() == 4 ? 2 : transport()->size(); }
+
+TEST(DistributionBlocks, AFlyingSpinningBlockCrossesRowsAndColumnsBitwise)
+{
+    for (const auto& [transfer, update] : {std::pair{emp::Transfer::apic, emp::StressUpdate::corotational},
+                                           std::pair{emp::Transfer::flip, emp::StressUpdate::smallStrain}}) {
+        auto settings = emptest::typicalSettings(0.01);
+        settings.transfer = transfer;
+        settings.stressUpdate = update;
+        settings.gravity = Eigen::Vector3d(0, -9.81, 0);
+        settings.columnCells = 2;
+        const auto build = [](emp::Solver<2, emp::GimpKernel>& s) {
+            const int m = s.addMaterial(1e6, 0.3, 1000, false, emp::lawIndex("spectral"));
+            s.setDomain(Eigen::Vector3d(-0.05, -0.05, 0), Eigen::Vector3d(0.3, 0.6, 0));
+            emptest::addBlock<2, emp::GimpKernel>(s, {2, 2}, {12, 10}, m, [](const Vec<2>& x) {
+                return Vec<2>(1.2 - 2.0 * (x[1] - 0.06), 8.0 + 2.0 * (x[0] - 0.07));
+            });
+        };
+        const auto o = compare<2, emp::GimpKernel>(settings, build, 300, 0.5, 1, rankColumns());
+        EXPECT_EQ(o.differing, 0);
+        // (The block leaves the ranks behind it without points: nothing is rebalanced yet.)
+        EXPECT_EQ(o.points, 320);
+        if (transport()->size() > 1) EXPECT_TRUE(o.migrated);
+    }
+}
+
+TEST(DistributionBlocks, A3dBlockOnSupportsWithTwoThreadsPerRank)
+{
+    auto settings = emptest::typicalSettings(0.01);
+    settings.gravity = Eigen::Vector3d(0, 0, -9.81);
+    settings.columnCells = 2;
+    const auto build = [](emp::Solver<3, emp::GimpKernel>& s) {
+        const int m = s.addMaterial(1e6, 0.3, 1000, false, emp::lawIndex("spectral"));
+        s.setDomain(Eigen::Vector3d(-0.03, -0.03, -0.03), Eigen::Vector3d(0.15, 0.09, 0.2));
+        std::mt19937 rng(4);
+        std::uniform_real_distribution<double> u(-0.3, 0.3);
+        emptest::addBlock<3, emp::GimpKernel>(s, {0, 0, 0}, {12, 6, 16}, m,
+                                              [&](const Vec<3>&) { return Vec<3>(u(rng), u(rng), u(rng)); });
+        std::vector<int> base;
+        s.initialize();
+        for (int I = 0; I < s.grid().numNodes(); ++I)
+            if (s.grid().nodePosition(I)[2] <= 0) base.push_back(I);
+        s.addVelocityCondition(base, {}, 7u, Eigen::Vector3d::Zero(), 0);
+    };
+    const auto o = compare<3, emp::GimpKernel>(settings, build, 60, 0.5, 2, rankColumns());
+    EXPECT_EQ(o.differing, 0);
+}
+
+TEST(DistributionBlocks, LinearShapesInColumnsOfOneCell)
+{
+    auto settings = emptest::typicalSettings(0.01);
+    settings.gravity = Eigen::Vector3d(0.5, -9.81, 0);
+    settings.columnCells = 1;
+    const auto build = [](emp::Solver<2, emp::LinearKernel>& s) {
+        const int m = s.addMaterial(1e6, 0.3, 1000, false, emp::lawIndex("spectral"));
+        s.setDomain(Eigen::Vector3d(-0.05, -0.05, 0), Eigen::Vector3d(0.25, 0.3, 0));
+        std::mt19937 rng(8);
+        std::uniform_real_distribution<double> u(-0.5, 0.5);
+        emptest::addBlock<2, emp::LinearKernel>(s, {1, 1}, {18, 20}, m, [&](const Vec<2>&) { return Vec<2>(u(rng), u(rng)); });
+        std::vector<int> base;
+        s.initialize();
+        for (int I = 0; I < s.grid().numNodes(); ++I)
+            if (s.grid().nodePosition(I)[1] <= 0.01) base.push_back(I);
+        s.addVelocityCondition(base, {}, 2u, Eigen::Vector3d::Zero(), 0);
+    };
+    const auto o = compare<2, emp::LinearKernel>(settings, build, 200, 0.5, 1, rankColumns());
+    EXPECT_EQ(o.differing, 0);
+}
+
+TEST(DistributionBlocks, RefuseWhatTheyDoNotHave)
+{
+    if (transport()->size() == 1) GTEST_SKIP() << "one rank: one column";
+    auto settings = emptest::typicalSettings(1e-3);
+    settings.columnCells = 2;
+    {  // erosion, tractions: not yet in two directions
+        emp::Solver<2, emp::GimpKernel> s(settings);
+        crackedPlate(s, true);
+        EXPECT_THROW(s.distribute(transport(), rankColumns()), emp::ParameterError);
+    }
+    {  // a pre-existing crack
+        emp::Solver<2, emp::GimpKernel> s(settings);
+        s.addMaterial(72e9, 0.22, 2440, true, emp::lawIndex("spectral"));
+        s.addPoint(Eigen::Vector3d(0.01, 0.01, 0), Eigen::Vector3d::Zero(), 1e-9, 0);
+        s.addCrack({Eigen::Vector3d(0, 0.012, 0), Eigen::Vector3d(0.01, 0.012, 0)});
+        EXPECT_THROW(s.distribute(transport(), rankColumns()), emp::ParameterError);
+    }
+    {  // columns of ranks without the scheduler's columns, or not dividing the ranks
+        emp::Solver<2, emp::GimpKernel> s(emptest::typicalSettings(1e-3));
+        crackedPlate(s, false);
+        EXPECT_THROW(s.distribute(transport(), 2), emp::ParameterError);
+        emp::Solver<2, emp::GimpKernel> t(settings);
+        t.addMaterial(72e9, 0.22, 2440, true, emp::lawIndex("spectral"));
+        t.addPoint(Eigen::Vector3d(0.01, 0.01, 0), Eigen::Vector3d::Zero(), 1e-9, 0);
+        EXPECT_THROW(t.distribute(transport(), transport()->size() + 1), emp::ParameterError);
+    }
 }
 
 TEST(Distribution, RefusesWhatItDoesNotHave)
