@@ -113,9 +113,7 @@ template <int D> void Distribution<D>::sendPoints(MaterialPoints<D>& P, const st
     const int n = static_cast<int>(P.size());
     // The messages: one per neighbour in the grid of ranks, or one per rank (this one's empty).
     const int nOut = neighboursOnly ? static_cast<int>(neighbours_.size()) : size_;
-    const auto slot = [&](int r) {
-        return neighboursOnly ? static_cast<int>(std::lower_bound(neighbours_.begin(), neighbours_.end(), r) - neighbours_.begin()) : r;
-    };
+    const auto slot = [&](int r) { return neighboursOnly ? slotOf(r) : r; };
     std::vector<std::vector<int>> leaving(nOut);
     std::vector<int> keep;
     keep.reserve(n);
@@ -293,9 +291,7 @@ template <int D> void Distribution<D>::afterPhase(int k, int phases, const Grid<
 template <int D> void Distribution<D>::passChain(int k, const Grid<D>& g, const std::vector<NodeField>& fields)
 {
     (void)g;
-    const auto slot = [&](int r) {
-        return static_cast<int>(std::lower_bound(neighbours_.begin(), neighbours_.end(), r) - neighbours_.begin());
-    };
+    const auto slot = [&](int r) { return slotOf(r); };
     std::vector<std::vector<char>> out(neighbours_.size());
     for (const auto& pass : chain_->sends(k)) {
         Bytes b;
@@ -328,9 +324,58 @@ template <int D> void Distribution<D>::finishScatter(const Grid<D>& g, const std
     setPlanes(g, rightShared_, fromRight, fields);
 }
 
+template <int D> void Distribution<D>::writersOf(int I, std::vector<int>& ranks) const
+{
+    constexpr int W = Scheduler<D>::stripWidth;
+    const int i0 = I % n_[0], iL = I / (D == 3 ? n_[0] * n_[1] : n_[0]);
+    const auto s = tilesWriting(iL, W, n_[D - 1], first_.back(), S_);
+    const auto c = tilesWriting(i0, columnCells_, n_[0], numColumns_, S_);
+    ranks.clear();
+    for (int si = s[0]; si <= s[1]; ++si)
+        for (int ci = c[0]; ci <= c[1]; ++ci) ranks.push_back(rankOf(si, ci));
+    std::sort(ranks.begin(), ranks.end());
+    ranks.erase(std::unique(ranks.begin(), ranks.end()), ranks.end());
+}
+
+template <int D> bool Distribution<D>::sharedNode(int I) const
+{
+    std::vector<int> ranks;
+    writersOf(I, ranks);
+    return ranks.size() > 1;
+}
+
+template <int D> void Distribution<D>::applyRecordsBlocks(std::vector<NodeRecord<D>>& mine, NodeField f)
+{
+    // Each contribution goes to the other ranks that write its node; every writer then applies
+    // all of them in key order.
+    std::vector<Bytes> out(neighbours_.size());
+    std::vector<int> writers;
+    for (const auto& r : mine) {
+        writersOf(r.node, writers);
+        for (int q : writers)
+            if (q != rank_) out[slotOf(q)].put(r);
+    }
+    std::vector<std::vector<char>> bytes(neighbours_.size());
+    for (std::size_t i = 0; i < out.size(); ++i) bytes[i].swap(out[i].data);
+    for (auto& theirs : t_->neighbourExchange(neighbours_, bytes)) {
+        Bytes b;
+        b.data.swap(theirs);
+        while (!b.done()) mine.push_back(b.template get<NodeRecord<D>>());
+    }
+    std::stable_sort(mine.begin(), mine.end(), [](const NodeRecord<D>& a, const NodeRecord<D>& c) {
+        return a.key[0] != c.key[0] ? a.key[0] < c.key[0] : a.key[1] < c.key[1];
+    });
+    for (const auto& r : mine)
+        for (int d = 0; d < D; ++d) f.data[static_cast<std::size_t>(r.node) * D + d] += r.value[d];
+}
+
 template <int D>
 void Distribution<D>::applyRecords(std::vector<NodeRecord<D>>& left, std::vector<NodeRecord<D>>& right, NodeField f)
 {
+    if (cols_ > 1) {
+        applyRecordsBlocks(left, f);
+        return;
+    }
     const auto bytes = [](const std::vector<NodeRecord<D>>& r) {
         Bytes b;
         for (const auto& x : r) b.put(x);
@@ -353,8 +398,49 @@ void Distribution<D>::applyRecords(std::vector<NodeRecord<D>>& left, std::vector
 }
 
 template <int D>
+void Distribution<D>::ghostsBlocks(const MaterialPoints<D>& P, const Grid<D>& g, double reach, GhostPoints<D>& out)
+{
+    // Every neighbour gets the points within the margin of its block (the tiles' cells along the
+    // first and the last axis).
+    constexpr int W = Scheduler<D>::stripWidth;
+    const double margin = reach + 2 * g.h;
+    struct Box {
+        double lo0, hi0, loL, hiL;
+    };
+    std::vector<Box> box;
+    for (int q : neighbours_) {
+        const int r = q / cols_, c = q % cols_;
+        box.push_back({g.origin[0] + firstCol_[c] * columnCells_ * g.h - margin,
+                       g.origin[0] + firstCol_[c + 1] * columnCells_ * g.h + margin,
+                       g.origin[D - 1] + first_[r] * W * g.h - margin, g.origin[D - 1] + first_[r + 1] * W * g.h + margin});
+    }
+    std::vector<Bytes> to(neighbours_.size());
+    for (std::size_t p = 0; p < P.size(); ++p) {
+        const double x0 = P.x[p][0], xL = P.x[p][D - 1];
+        for (std::size_t i = 0; i < box.size(); ++i)
+            if (x0 >= box[i].lo0 && x0 <= box[i].hi0 && xL >= box[i].loL && xL <= box[i].hiL) {
+                to[i].put(P.globalId[p]);
+                to[i].put(P.x[p]);
+                to[i].put(P.mass[p]);
+                to[i].put(P.history[p]);
+                to[i].put(P.damage[p]);
+            }
+    }
+    std::vector<std::vector<char>> bytes(neighbours_.size());
+    for (std::size_t i = 0; i < to.size(); ++i) bytes[i].swap(to[i].data);
+    std::vector<Bytes> from(neighbours_.size());
+    auto in = t_->neighbourExchange(neighbours_, bytes);
+    for (std::size_t i = 0; i < in.size(); ++i) from[i].data.swap(in[i]);
+    collectGhosts(from, out);
+}
+
+template <int D>
 void Distribution<D>::ghosts(const MaterialPoints<D>& P, const Grid<D>& g, double reach, GhostPoints<D>& out)
 {
+    if (cols_ > 1) {
+        ghostsBlocks(P, g, reach, out);
+        return;
+    }
     // The planes this rank owns, widened by the reach and by the two cells a point's base node
     // may lie from its position: a neighbour's point nearer than that is sent.
     const double lo = g.origin[D - 1] + (first_[rank_] * Scheduler<D>::stripWidth) * g.h;
@@ -375,6 +461,14 @@ void Distribution<D>::ghosts(const MaterialPoints<D>& P, const Grid<D>& g, doubl
     }
     Bytes fromLeft, fromRight;
     t_->exchange(toLeft.data, toRight.data, fromLeft.data, fromRight.data);
+    std::vector<Bytes> from(2);
+    from[0].data.swap(fromLeft.data);
+    from[1].data.swap(fromRight.data);
+    collectGhosts(from, out);
+}
+
+template <int D> void Distribution<D>::collectGhosts(std::vector<Bytes>& from, GhostPoints<D>& out)
+{
     // Each neighbour sent its points in globalId order: merged into one sorted list.
     struct Ghost {
         std::int32_t id;
@@ -382,14 +476,14 @@ void Distribution<D>::ghosts(const MaterialPoints<D>& P, const Grid<D>& g, doubl
         double mass, history, damage;
     };
     std::vector<Ghost> all;
-    for (Bytes* b : {&fromLeft, &fromRight})
-        while (!b->done()) {
+    for (Bytes& b : from)
+        while (!b.done()) {
             Ghost q;
-            q.id = b->get<std::int32_t>();
-            q.x = b->get<Vec<D>>();
-            q.mass = b->get<double>();
-            q.history = b->get<double>();
-            q.damage = b->get<double>();
+            q.id = b.get<std::int32_t>();
+            q.x = b.get<Vec<D>>();
+            q.mass = b.get<double>();
+            q.history = b.get<double>();
+            q.damage = b.get<double>();
             all.push_back(q);
         }
     std::stable_sort(all.begin(), all.end(), [](const Ghost& a, const Ghost& b) { return a.id < b.id; });
@@ -450,6 +544,23 @@ template <int D> void Distribution<D>::restoreBox(Grid<D>& g, const int* lo, con
 
 template <int D> void Distribution<D>::shareNodes(const Grid<D>& g, std::vector<int>& nodes)
 {
+    if (cols_ > 1) {  // every node goes to the other ranks that write it
+        std::vector<Bytes> out(neighbours_.size());
+        std::vector<int> writers;
+        for (int I : nodes) {
+            writersOf(I, writers);
+            for (int q : writers)
+                if (q != rank_) out[slotOf(q)].put(I);
+        }
+        std::vector<std::vector<char>> bytes(neighbours_.size());
+        for (std::size_t i = 0; i < out.size(); ++i) bytes[i].swap(out[i].data);
+        for (auto& theirs : t_->neighbourExchange(neighbours_, bytes)) {
+            Bytes b;
+            b.data.swap(theirs);
+            while (!b.done()) nodes.push_back(b.get<int>());
+        }
+        return;
+    }
     Bytes toLeft, toRight, fromLeft, fromRight;
     for (int I : nodes) {
         const int side = sharedSide(I / g.stride[D - 1]);

@@ -218,8 +218,13 @@ public:
     /// After a scatter: the rank that wrote a shared plane last hands the totals back.
     void finishScatter(const Grid<D>& g, const std::vector<NodeField>& fields);
     /// Applies the serial contributions to shared planes (left, right) of this rank and of its
-    /// neighbours, in key order, to the field f (width D).
+    /// neighbours, in key order, to the field f (width D). With columns of ranks, `left` holds
+    /// every contribution to a node that other ranks write too (sharedNode), and `right` none.
     void applyRecords(std::vector<NodeRecord<D>>& left, std::vector<NodeRecord<D>>& right, NodeField f);
+    /// With columns of ranks: the ranks whose tiles write the regular node I (this one's too),
+    /// increasing; whether there are several.
+    void writersOf(int I, std::vector<int>& ranks) const;
+    bool sharedNode(int I) const;
 
     /// The neighbours' points within `reach` of this rank's range along the last axis.
     void ghosts(const MaterialPoints<D>& P, const Grid<D>& g, double reach, GhostPoints<D>& out);
@@ -251,6 +256,17 @@ private:
     void sendPoints(MaterialPoints<D>& P, const std::vector<int>& to, bool neighboursOnly);
     /// The passes of ScatterChain after phase k: node values to and from the neighbours.
     void passChain(int k, const Grid<D>& g, const std::vector<NodeField>& fields);
+    /// applyRecords and ghosts with columns of ranks: with the neighbours in the grid of ranks.
+    void applyRecordsBlocks(std::vector<NodeRecord<D>>& mine, NodeField f);
+    void ghostsBlocks(const MaterialPoints<D>& P, const Grid<D>& g, double reach, GhostPoints<D>& out);
+    /// The ghost points the neighbours sent (globalId, position, mass, history, damage each),
+    /// sorted by globalId into out.
+    void collectGhosts(std::vector<Bytes>& from, GhostPoints<D>& out);
+    /// The index of neighbour r in neighbours_.
+    int slotOf(int r) const
+    {
+        return static_cast<int>(std::lower_bound(neighbours_.begin(), neighbours_.end(), r) - neighbours_.begin());
+    }
     /// Throws ParameterError when there are fewer strips than ranks.
     void checkStrips(int numStrips) const;
     std::vector<char> planes(const Grid<D>& g, int lo, int hi, const std::vector<NodeField>& fields) const;

@@ -39,6 +39,15 @@ struct Blocks {
     int rankOf(int s, int c) const { return rangeOf(strips, s) * cols() + rangeOf(columns, c); }
 };
 
+/// The tiles along one axis (strips or columns of `width` cells, `count` of them; width 0: one)
+/// whose points can write node i of `nodes`, for a kernel of support S: their bases lie in
+/// [i - (S - 1), i] on the grid. Returns the first and the last.
+inline std::array<int, 2> tilesWriting(int i, int width, int nodes, int count, int S)
+{
+    const int lo = std::max(0, i - (S - 1)), hi = std::min(i, nodes - S);
+    return width > 0 ? std::array<int, 2>{lo / width, std::min(hi / width, count - 1)} : std::array<int, 2>{0, 0};
+}
+
 template <int D> class ScatterChain {
 public:
     /// Nodes handed to or taken from one rank, in increasing index.
@@ -65,12 +74,7 @@ public:
         send_.assign(phases_, {});
         recv_.assign(phases_, {});
         const int row = rank / b.cols(), col = rank % b.cols();
-        // The tiles (strips, columns) whose points can write node i along an axis: their bases
-        // lie in [i - (S - 1), i] on the grid.
-        const auto tilesOf = [&](int i, int width, int nodes, int count) {
-            const int lo = std::max(0, i - (S - 1)), hi = std::min(i, nodes - S);
-            return width > 0 ? std::array<int, 2>{lo / width, std::min(hi / width, count - 1)} : std::array<int, 2>{0, 0};
-        };
+        const auto tilesOf = [&](int i, int width, int nodes, int count) { return tilesWriting(i, width, nodes, count, S); };
         // This rank's nodes along the two split axes: those its tiles can write.
         const int w0 = columnCells > 0 ? columnCells : n[0];
         const int lo0 = b.columns[col] * w0, hi0 = std::min(n[0] - 1, b.columns[col + 1] * w0 - 1 + S - 1);

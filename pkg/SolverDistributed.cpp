@@ -53,6 +53,14 @@ template <int D, class K> void Solver<D, K>::distributePoints()
         require(thinnest >= minStrips, "number of ranks", dist_->size(),
                 "one whose thinnest range of strips (" + std::to_string(thinnest) + " x " +
                     std::to_string(Scheduler<D>::stripWidth) + " cells) holds kappa + 2 h (fewer ranks)");
+        if (rankColumns_ > 1 && erosion_) {  // (and whose thinnest range of columns holds it too)
+            const auto& fc = dist_->firstColumns();
+            int narrowest = INT_MAX;
+            for (int c = 0; c < rankColumns_; ++c) narrowest = std::min(narrowest, fc[c + 1] - fc[c]);
+            require(narrowest * cells * grid_.h >= erosion_->settings().kappa + 2 * grid_.h, "rankColumns", rankColumns_,
+                    "one whose narrowest range of columns (" + std::to_string(narrowest) + " x " + std::to_string(cells) +
+                        " cells) holds kappa + 2 h (fewer rank columns, or wider columnCells)");
+        }
     } else if (rankColumns_ > 1) {
         dist_->migrateBlocks(points_, [&](const Vec<D>& x) {
             const int s = stripOf(x);
@@ -87,7 +95,11 @@ template <int D, class K> void Solver<D, K>::ownedNodes(int& lo, int& hi) const
 template <int D, class K>
 void Solver<D, K>::addNodeForce(int I, const Vec<D>& f, std::int64_t key0, std::int64_t key1)
 {
-    const int side = !dist_ ? 0 : dist_->sharedSide((I < grid_.numNodes() ? I : twinRegular_[I - grid_.numNodes()]) / grid_.stride[D - 1]);
+    const int regular = !dist_ ? I : I < grid_.numNodes() ? I : twinRegular_[I - grid_.numNodes()];
+    // (With columns of ranks, every contribution to a node other ranks write too is a record.)
+    int side = 0;
+    if (dist_)  // (with columns of ranks, every contribution to a node other ranks write too is a record)
+        side = dist_->rankColumns() > 1 ? (dist_->sharedNode(regular) ? -1 : 0) : dist_->sharedSide(regular / grid_.stride[D - 1]);
     if (side == 0) {
         grid_.force[I] += f;
         return;
@@ -264,11 +276,7 @@ template <int D, class K> void Solver<D, K>::checkDistributable() const
         const std::string cols = " with rankColumns = " + std::to_string(rankColumns_) +
                                  "; a decomposition in two directions (doc/parallel.md) does not have it yet: "
                                  "use rankColumns = 1";
-        require(!erosion_, "eigenerosion", "attached", "none" + cols);
         require(phantom_.empty(), "pre-existing cracks", phantom_.numCracks(), "none" + cols);
-        require(tractions_.empty(), "tractions", tractions_.size(), "none" + cols);
-        for (const auto& c : velocityConditions_)
-            require(c->points.empty(), "velocity condition on points", c->points.size(), "conditions on nodes only" + cols);
     }
     const std::string not_ = "; a distributed run (doc/parallel.md) does not have it yet: run on one process";
     require(!points_.bodies, "bodies", "several", "one" + not_);

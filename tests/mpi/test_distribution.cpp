@@ -280,31 +280,33 @@ TEST(Distribution, EachRankSavesItsPartAndTheSameRanksResumeBitwise)
     EXPECT_TRUE(sameBits(a.externalWork(), b->externalWork()));
 }
 
+/// A plate pulled apart by conditions on its top and bottom rows of points, with a band of
+/// points across mid-height (where ranks meet) held in x: the nodes nearest to one rank's
+/// points may lie in the planes it shares.
+void pulledPlate(emp::Solver<2, emp::GimpKernel>& s)
+{
+    const double h = s.settings().h;
+    const int glass = s.addMaterial(72e9, 0.22, 2440, true, emp::lawIndex("spectral"));
+    s.setDomain(Eigen::Vector3d(-3 * h, -3 * h, 0), Eigen::Vector3d(27 * h, 27 * h, 0));
+    std::vector<int> top, bottom, band;
+    const double dx = h / s.settings().ppc;
+    for (int j = 0; j < 48; ++j)
+        for (int i = 0; i < 48; ++i) {
+            const Vec<2> x((i + 0.5) * dx, (j + 0.5) * dx);
+            const int id = s.addPoint(to3<2>(x), Eigen::Vector3d::Zero(), dx * dx * h, glass);
+            if (j == 47) top.push_back(id);
+            if (j == 0) bottom.push_back(id);
+            if (std::abs(x[1] - 12 * h) < 3 * h && i % 5 == 0) band.push_back(id);
+        }
+    s.addVelocityCondition({}, top, 3u, Eigen::Vector3d(0, 2.0, 0), 1e-6);
+    s.addVelocityCondition({}, bottom, 3u, Eigen::Vector3d(0, -2.0, 0), 1e-6);
+    s.addVelocityCondition({}, band, 1u, Eigen::Vector3d::Zero(), 0);
+    s.setErosion(std::make_shared<emp::EigenErosion<2>>(emp::ErosionSettings{30.0, 2.0, 1.1 * h}));
+}
+
 TEST(Distribution, VelocityConditionsOnPointsAcrossRanks)
 {
-    // A plate pulled apart by conditions on its top and bottom rows of points, with a band of
-    // points across mid-height (where ranks meet) held in x: the nodes nearest to one rank's
-    // points may lie in the planes it shares.
-    const auto build = [](emp::Solver<2, emp::GimpKernel>& s) {
-        const double h = s.settings().h;
-        const int glass = s.addMaterial(72e9, 0.22, 2440, true, emp::lawIndex("spectral"));
-        s.setDomain(Eigen::Vector3d(-3 * h, -3 * h, 0), Eigen::Vector3d(27 * h, 27 * h, 0));
-        std::vector<int> top, bottom, band;
-        const double dx = h / s.settings().ppc;
-        for (int j = 0; j < 48; ++j)
-            for (int i = 0; i < 48; ++i) {
-                const Vec<2> x((i + 0.5) * dx, (j + 0.5) * dx);
-                const int id = s.addPoint(to3<2>(x), Eigen::Vector3d::Zero(), dx * dx * h, glass);
-                if (j == 47) top.push_back(id);
-                if (j == 0) bottom.push_back(id);
-                if (std::abs(x[1] - 12 * h) < 3 * h && i % 5 == 0) band.push_back(id);
-            }
-        s.addVelocityCondition({}, top, 3u, Eigen::Vector3d(0, 2.0, 0), 1e-6);
-        s.addVelocityCondition({}, bottom, 3u, Eigen::Vector3d(0, -2.0, 0), 1e-6);
-        s.addVelocityCondition({}, band, 1u, Eigen::Vector3d::Zero(), 0);
-        s.setErosion(std::make_shared<emp::EigenErosion<2>>(emp::ErosionSettings{30.0, 2.0, 1.1 * h}));
-    };
-    const auto o = compare<2, emp::GimpKernel>(emptest::typicalSettings(1e-3), build, 300, 0.5);
+    const auto o = compare<2, emp::GimpKernel>(emptest::typicalSettings(1e-3), pulledPlate, 300, 0.5);
     EXPECT_EQ(o.differing, 0);
 }
 
@@ -381,16 +383,35 @@ TEST(DistributionBlocks, LinearShapesInColumnsOfOneCell)
     EXPECT_EQ(o.differing, 0);
 }
 
+TEST(DistributionBlocks, ACrackedPlateErodesBitwiseInBlocks)
+{
+    // Eigenerosion across rows and columns of ranks (ghost points from the eight neighbours),
+    // the eroded points' force corrections and the tractions on nodes several ranks write.
+    auto settings = emptest::typicalSettings(1e-3);
+    settings.columnCells = 2;
+    const auto o = compare<2, emp::GimpKernel>(settings, [](auto& s) { crackedPlate(s, true); }, 400, 0.5, 1,
+                                               rankColumns());
+    EXPECT_EQ(o.differing, 0);
+    emp::Solver<2, emp::GimpKernel> one(settings);
+    crackedPlate(one, true);
+    const double dt = 0.5 * one.criticalTimeStep();
+    for (int n = 0; n < 400; ++n) one.step(dt, 1);
+    EXPECT_GT(one.erosion()->erodedCount(), 20u);
+}
+
+TEST(DistributionBlocks, VelocityConditionsOnPointsInBlocks)
+{
+    auto settings = emptest::typicalSettings(1e-3);
+    settings.columnCells = 2;
+    const auto o = compare<2, emp::GimpKernel>(settings, pulledPlate, 300, 0.5, 1, rankColumns());
+    EXPECT_EQ(o.differing, 0);
+}
+
 TEST(DistributionBlocks, RefuseWhatTheyDoNotHave)
 {
     if (transport()->size() == 1) GTEST_SKIP() << "one rank: one column";
     auto settings = emptest::typicalSettings(1e-3);
     settings.columnCells = 2;
-    {  // erosion, tractions: not yet in two directions
-        emp::Solver<2, emp::GimpKernel> s(settings);
-        crackedPlate(s, true);
-        EXPECT_THROW(s.distribute(transport(), rankColumns()), emp::ParameterError);
-    }
     {  // a pre-existing crack
         emp::Solver<2, emp::GimpKernel> s(settings);
         s.addMaterial(72e9, 0.22, 2440, true, emp::lawIndex("spectral"));
