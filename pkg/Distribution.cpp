@@ -293,11 +293,19 @@ template <int D> void Distribution<D>::passChain(int k, const Grid<D>& g, const 
     (void)g;
     const auto slot = [&](int r) { return slotOf(r); };
     std::vector<std::vector<char>> out(neighbours_.size());
+    // Each node's values, then its twins' (the cracks' phantom nodes, the same on every rank).
+    const auto forEachNode = [&](const std::vector<int>& nodes, auto&& f) {
+        for (int I : nodes) {
+            f(I);
+            if (phantom_) phantom_->forEachTwin(I, f);
+        }
+    };
     for (const auto& pass : chain_->sends(k)) {
         Bytes b;
         for (const NodeField& f : fields)
-            for (int I : pass.nodes)
+            forEachNode(pass.nodes, [&](int I) {
                 for (int c = 0; c < f.width; ++c) b.put(f.data[static_cast<std::size_t>(I) * f.width + c]);
+            });
         out[slot(pass.rank)].swap(b.data);
     }
     std::vector<std::vector<char>> in = t_->neighbourExchange(neighbours_, out);
@@ -305,8 +313,9 @@ template <int D> void Distribution<D>::passChain(int k, const Grid<D>& g, const 
         Bytes b;
         b.data.swap(in[slot(pass.rank)]);
         for (const NodeField& f : fields)
-            for (int I : pass.nodes)
+            forEachNode(pass.nodes, [&](int I) {
                 for (int c = 0; c < f.width; ++c) f.data[static_cast<std::size_t>(I) * f.width + c] = b.get<double>();
+            });
     }
 }
 
@@ -512,22 +521,22 @@ void Distribution<D>::forEachInBox(const Grid<D>& g, const int* lo, const int* h
             for (i[0] = lo[0]; i[0] <= hi[0]; ++i[0]) {
                 int I = 0;
                 for (int d = 0; d < D; ++d) I += i[d] * g.stride[d];
-                f(I, i[D - 1], false);
-                if (phantom_) phantom_->forEachTwin(I, [&](int t) { f(t, i[D - 1], true); });
+                f(I, i[0], i[D - 1]);
+                if (phantom_) phantom_->forEachTwin(I, [&](int t) { f(t, i[0], i[D - 1]); });
             }
 }
 
 template <int D> void Distribution<D>::shareBox(Grid<D>& g, const int* lo, const int* hi)
 {
     std::vector<double> v;
-    forEachInBox(g, lo, hi, [&](int I, int plane, bool) {
-        const bool mine = plane >= ownedLo_ && plane < ownedHi_;
+    forEachInBox(g, lo, hi, [&](int I, int i0, int plane) {
+        const bool mine = plane >= ownedLo_ && plane < ownedHi_ && i0 >= ownedColLo_ && i0 < ownedColHi_;
         v.push_back(mine ? g.mass[I] : 0.0);
         for (int d = 0; d < D; ++d) v.push_back(mine ? g.momentum[I][d] : 0.0);
     });
     t_->sum(v.data(), static_cast<int>(v.size()));  // one rank owns each plane: x + 0 is x, exactly
     std::size_t k = 0;
-    forEachInBox(g, lo, hi, [&](int I, int, bool) {
+    forEachInBox(g, lo, hi, [&](int I, int, int) {
         g.mass[I] = v[k++];
         for (int d = 0; d < D; ++d) g.momentum[I][d] = v[k++];
     });
@@ -535,8 +544,8 @@ template <int D> void Distribution<D>::shareBox(Grid<D>& g, const int* lo, const
 
 template <int D> void Distribution<D>::restoreBox(Grid<D>& g, const int* lo, const int* hi)
 {
-    forEachInBox(g, lo, hi, [&](int I, int plane, bool) {
-        if (plane >= planeLo_ && plane < planeHi_) return;
+    forEachInBox(g, lo, hi, [&](int I, int i0, int plane) {
+        if (plane >= planeLo_ && plane < planeHi_ && i0 >= colLo_ && i0 < colHi_) return;
         g.mass[I] = 0;
         g.momentum[I].setZero();
     });

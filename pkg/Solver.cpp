@@ -758,8 +758,12 @@ template <int D, class K> void Solver<D, K>::accumulateExternalWork(double dt)
             for (int I = lo; I < hi; ++I) gravityOn(I);
         }
         if (dist_)  // the twins of the owned nodes
-            for (int t = g.numNodes(); t < g.totalNodes(); ++t)
-                if (twinRegular_[t - g.numNodes()] >= lo && twinRegular_[t - g.numNodes()] < hi) gravityOn(t);
+            for (int t = g.numNodes(); t < g.totalNodes(); ++t) {
+                const int I = twinRegular_[t - g.numNodes()];
+                if (I >= lo && I < hi && (dist_->rankColumns() == 1 ||
+                                          (I % g.n[0] >= dist_->ownedColumnLo() && I % g.n[0] < dist_->ownedColumnHi())))
+                    gravityOn(t);
+            }
     }
 }
 

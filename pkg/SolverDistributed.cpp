@@ -272,12 +272,6 @@ template <int D, class K> void Solver<D, K>::checkRankColumns(int ranks) const
 
 template <int D, class K> void Solver<D, K>::checkDistributable() const
 {
-    if (rankColumns_ > 1) {  // (what the decomposition in two directions does not have yet)
-        const std::string cols = " with rankColumns = " + std::to_string(rankColumns_) +
-                                 "; a decomposition in two directions (doc/parallel.md) does not have it yet: "
-                                 "use rankColumns = 1";
-        require(phantom_.empty(), "pre-existing cracks", phantom_.numCracks(), "none" + cols);
-    }
     const std::string not_ = "; a distributed run (doc/parallel.md) does not have it yet: run on one process";
     require(!points_.bodies, "bodies", "several", "one" + not_);
     require(!contact_, "contact with YADE bodies", "attached", "none" + not_);
