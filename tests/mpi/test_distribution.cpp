@@ -251,14 +251,16 @@ TEST(Distribution, PhantomCrackAcrossRanksGrowsBitwiseAsOnOneProcess)
     EXPECT_GT(one.erosion()->erodedCount(), 20u);  // the crack grows from the phantom crack's tip
 }
 
-TEST(Distribution, EachRankSavesItsPartAndTheSameRanksResumeBitwise)
+void saveAndResume(int columnCells, int rankColumns)
 {
     // The phantom-cracked plate with erosion: saved by every rank after 150 steps, loaded,
     // distributed again and stepped 150 more, it must be bitwise the run that did not stop.
     using Sv = emp::Solver<2, emp::GimpKernel>;
-    Sv a(emptest::typicalSettings(1e-3));
+    auto settings = emptest::typicalSettings(1e-3);
+    settings.columnCells = columnCells;
+    Sv a(settings);
     crackedPlate(a, true, true);
-    a.distribute(transport());
+    a.distribute(transport(), rankColumns);
     const double dt = 0.5 * a.criticalTimeStep();
     for (int n = 0; n < 150; ++n) a.step(dt, 1);
     std::stringstream archive;
@@ -267,7 +269,13 @@ TEST(Distribution, EachRankSavesItsPartAndTheSameRanksResumeBitwise)
     auto b = Sv::loadState(archive);
     EXPECT_TRUE(b->distributedPart());
     EXPECT_THROW(b->step(dt, 1), emp::ParameterError);  // a rank's part alone does not step
-    b->distribute(transport());
+    if (rankColumns > 1) {  // (another number of rank columns is refused)
+        std::stringstream again(archive.str());
+        auto c = Sv::loadState(again);
+        EXPECT_THROW(c->distribute(transport(), rankColumns + 1), emp::ParameterError);
+    }
+    b->distribute(transport());  // (with the archive's columns of ranks)
+    EXPECT_EQ(b->distribution()->rankColumns(), rankColumns);
     for (int n = 0; n < 150; ++n) b->step(dt, 1);
     ASSERT_EQ(a.points().size(), b->points().size());
     int differing = 0;
@@ -280,6 +288,8 @@ TEST(Distribution, EachRankSavesItsPartAndTheSameRanksResumeBitwise)
     EXPECT_GT(a.erosion()->erodedCount(), 0u);
     EXPECT_TRUE(sameBits(a.externalWork(), b->externalWork()));
 }
+
+TEST(Distribution, EachRankSavesItsPartAndTheSameRanksResumeBitwise) { saveAndResume(0, 1); }
 
 /// A plate pulled apart by conditions on its top and bottom rows of points, with a band of
 /// points across mid-height (where ranks meet) held in x: the nodes nearest to one rank's
@@ -455,12 +465,13 @@ TEST(Distribution, RefusesWhatItDoesNotHave)
     EXPECT_THROW(d.step(0.5 * d.criticalTimeStep(), 1), emp::ParameterError);
 }
 
-TEST(Distribution, PointsDistributedAtSetUpGiveTheOneProcessGridCutOffAndSteps)
+void distributedAtSetUp(int columnCells, int rankColumns)
 {
     // Three batches of points with uneven volumes (so that the mean mass depends on the order of
     // its sum) and speeds, and no domain: the grid follows the points' box. Each rank adds only
     // its share of every batch (distributeSetup, holdPoints); no rank ever holds them all.
     auto settings = emptest::typicalSettings(0.01);
+    settings.columnCells = columnCells;
     settings.massCutoff = 0.3;  // (large: a node near the cut-off would show a different one)
     settings.gravity = Eigen::Vector3d(0, -9.81, 0);
     const auto batch = [](int b, int i) {
@@ -471,7 +482,7 @@ TEST(Distribution, PointsDistributedAtSetUpGiveTheOneProcessGridCutOffAndSteps)
     const int sizes[3] = {13 * 14, 13 * 9 + 5, 13 * 12};
     emp::Solver<2, emp::GimpKernel> one(settings), held(settings);
     const int m1 = one.addMaterial(1e6, 0.3, 1000, false, emp::lawIndex("spectral"));
-    held.distributeSetup(transport());
+    held.distributeSetup(transport(), rankColumns);
     const int m2 = held.addMaterial(1e6, 0.3, 1000, false, emp::lawIndex("spectral"));
     const int rank = transport()->rank(), ranks = transport()->size();
     std::size_t most = 0;
@@ -539,6 +550,12 @@ TEST(Distribution, PointsDistributedAtSetUpGiveTheOneProcessGridCutOffAndSteps)
     EXPECT_THROW(fresh.saveState(os), emp::SimulationError);
     EXPECT_THROW(one.distributeSetup(transport()), emp::ParameterError);
 }
+
+TEST(Distribution, PointsDistributedAtSetUpGiveTheOneProcessGridCutOffAndSteps) { distributedAtSetUp(0, 1); }
+
+TEST(DistributionBlocks, EachRankSavesItsPartAndTheSameRanksResumeBitwise) { saveAndResume(2, rankColumns()); }
+
+TEST(DistributionBlocks, PointsDistributedAtSetUpGiveTheOneProcessResults) { distributedAtSetUp(2, rankColumns()); }
 
 /// Pages of the array that are in memory (mincore), and all its pages.
 template <class A> std::pair<long, long> residentPages(const A& a)
