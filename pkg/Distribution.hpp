@@ -181,7 +181,13 @@ public:
     /// ranges changed; the same on every rank. Every rank calls it.
     template <class StripOf>
     bool rebalance(MaterialPoints<D>& P, StripOf&& stripOf, double tolerance, int minStrips);
-    // (With columns of ranks nothing is rebalanced yet: doc/parallel.md, "Limits".)
+    /// The same with columns of ranks (tileOf(x): strip and column): the rows and the columns
+    /// are balanced apart on the points counted per strip and per column, each range at least
+    /// minStrips strips and minColumns columns; the ranks' loads under the new ranges are
+    /// counted exactly (one sum of a number per rank) and the ranges change only when the
+    /// largest is lower.
+    template <class TileOf>
+    bool rebalanceBlocks(MaterialPoints<D>& P, TileOf&& tileOf, double tolerance, int minStrips, int minColumns);
     /// The largest number of points on one rank over the mean, from the last count of rebalance
     /// (after it moved points, the new ranges'); 0 before any.
     double imbalance() const { return imbalance_; }
@@ -379,10 +385,55 @@ void Distribution<D>::migrateBlocks(MaterialPoints<D>& P, TileOf&& tileOf)
 }
 
 template <int D>
+template <class TileOf>
+bool Distribution<D>::rebalanceBlocks(MaterialPoints<D>& P, TileOf&& tileOf, double tolerance, int minStrips, int minColumns)
+{
+    const int numStrips = first_.back(), n = static_cast<int>(P.size());
+    std::vector<std::array<int, 2>> tile(n);
+    // Points per strip and per column: one sum over the ranks; this rank's: a maximum and a sum.
+    std::vector<double> count(numStrips + numColumns_, 0.0);
+    for (int p = 0; p < n; ++p) {
+        tile[p] = tileOf(P.x[p]);
+        if (tile[p][0] < 0) continue;
+        ++count[tile[p][0]];
+        ++count[numStrips + tile[p][1]];
+    }
+    t_->sum(count.data(), numStrips + numColumns_);
+    double most = n, total = n;
+    t_->max(&most, 1);
+    t_->sum(&total, 1);
+    imbalance_ = total > 0 ? most * size_ / total : 1.0;
+    if (imbalance_ <= tolerance) return false;
+    const std::vector<int> rowsNext = balancedRanges(std::vector<double>(count.begin(), count.begin() + numStrips), rows());
+    const std::vector<int> colsNext =
+        balancedRanges(std::vector<double>(count.begin() + numStrips, count.begin() + numStrips + numColumns_), cols_);
+    for (int r = 0; r < rows(); ++r)
+        if (rowsNext[r + 1] - rowsNext[r] < minStrips) return false;
+    for (int c = 0; c < cols_; ++c)
+        if (colsNext[c + 1] - colsNext[c] < minColumns) return false;
+    if (rowsNext == first_ && colsNext == firstCol_) return false;
+    // Every rank's load under the new ranges, exactly.
+    const auto rankIn = [&](const std::array<int, 2>& t) {
+        return t[0] < 0 ? rank_ : Blocks::rangeOf(rowsNext, t[0]) * cols_ + Blocks::rangeOf(colsNext, t[1]);
+    };
+    std::vector<double> load(size_, 0.0);
+    std::vector<int> to(n);
+    for (int p = 0; p < n; ++p) ++load[to[p] = rankIn(tile[p])];
+    t_->sum(load.data(), size_);
+    const double better = total > 0 ? *std::max_element(load.begin(), load.end()) * size_ / total : 1.0;
+    if (better >= imbalance_) return false;
+    sendPoints(P, to, false);
+    first_ = rowsNext;
+    firstCol_ = colsNext;
+    setRangesOf(S_, nLast_);
+    imbalance_ = better;
+    return true;
+}
+
+template <int D>
 template <class StripOf>
 bool Distribution<D>::rebalance(MaterialPoints<D>& P, StripOf&& stripOf, double tolerance, int minStrips)
 {
-    if (cols_ > 1) return false;
     const int numStrips = first_.back(), n = static_cast<int>(P.size());
     std::vector<int> strip(n);
     std::vector<double> count(numStrips, 0.0);

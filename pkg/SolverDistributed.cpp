@@ -62,10 +62,18 @@ template <int D, class K> void Solver<D, K>::distributePoints()
                         " cells) holds kappa + 2 h (fewer rank columns, or wider columnCells)");
         }
     } else if (rankColumns_ > 1) {
-        dist_->migrateBlocks(points_, [&](const Vec<D>& x) {
+        const auto tileOf = [&](const Vec<D>& x) {
             const int s = stripOf(x);
             return std::array<int, 2>{s, s >= 0 ? columnOf(x) : 0};
-        });
+        };
+        dist_->migrateBlocks(points_, tileOf);
+        const int cells = settings_.columnCells;
+        const int minColumns = erosion_ ? std::max(1, static_cast<int>(std::ceil((erosion_->settings().kappa + 2 * grid_.h) /
+                                                                                  (cells * grid_.h))))
+                                        : 1;
+        if (rebalancePeriod_ > 0 && steps_ % rebalancePeriod_ == 0 &&
+            dist_->rebalanceBlocks(points_, tileOf, rebalanceTolerance_, minStrips, minColumns))
+            ++rebalances_;
     } else {
         dist_->migrate(points_, stripOf);
         if (rebalancePeriod_ > 0 && steps_ % rebalancePeriod_ == 0 &&

@@ -434,6 +434,39 @@ TEST(DistributionBlocks, VelocityConditionsOnPointsInBlocks)
     EXPECT_EQ(o.differing, 0);
 }
 
+TEST(DistributionBlocks, RebalancesABlockFlyingAcrossRowsAndColumns)
+{
+    // A block flies up and to the right through the rows and the columns of ranks: without
+    // rebalancing the rank at the far corner ends with every point. Checked every 5 steps at
+    // 1.05, the rows and the columns follow it, and every point stays bitwise.
+    auto settings = emptest::typicalSettings(0.01);
+    settings.gravity = Eigen::Vector3d(0, -9.81, 0);
+    settings.columnCells = 2;
+    const auto build = [](emp::Solver<2, emp::GimpKernel>& s) {
+        const int m = s.addMaterial(1e6, 0.3, 1000, false, emp::lawIndex("spectral"));
+        s.setDomain(Eigen::Vector3d(-0.05, -0.05, 0), Eigen::Vector3d(0.45, 0.6, 0));
+        emptest::addBlock<2, emp::GimpKernel>(s, {2, 2}, {12, 10}, m, [](const Vec<2>&) { return Vec<2>(2.5, 8.0); });
+        s.setRebalance(1.05, 5);
+    };
+    const auto o = compare<2, emp::GimpKernel>(settings, build, 300, 0.5, 1, rankColumns());
+    EXPECT_EQ(o.differing, 0);
+    emp::Solver<2, emp::GimpKernel> dist(settings);
+    build(dist);
+    dist.distribute(transport(), rankColumns());
+    const double dt = 0.5 * dist.criticalTimeStep();
+    double most = 0;
+    for (int n = 0; n < 300; ++n) {
+        dist.step(dt, 1);
+        most = static_cast<double>(dist.points().size());
+        transport()->max(&most, 1);
+    }
+    if (transport()->size() > 1) {
+        EXPECT_GT(dist.rebalances(), 2);
+        const double mean = 320.0 / transport()->size();
+        EXPECT_LE(most, 1.6 * mean) << "largest rank " << most << " points, mean " << mean;
+    }
+}
+
 TEST(DistributionBlocks, RefuseWhatTheyDoNotHave)
 {
     if (transport()->size() == 1) GTEST_SKIP() << "one rank: one column";
