@@ -30,7 +30,9 @@ none; see doc/fracture.md), E, nu, rho, Gc, traction_MPa, transfer (the particle
 MpmEngine: FLIP, the paper's and the default, or APIC, which needs shape=uGIMP) and stressUpdate
 (smallStrain, the paper's and the default, or corotational; doc/stability.md), distributedSetup
 (default 1: under mpiexec each rank builds only its share of the points, doc/parallel.md
-"Memory"; 0: every rank builds the whole scene first; the same results either way). Writes
+"Memory"; 0: every rank builds the whole scene first; the same results either way), columnCells
+and rankColumns (default 0 and 1: slabs along y; rankColumns=C columnCells=2 puts the ranks in C
+columns along x times N / C rows along y, doc/parallel.md "Decomposition in two directions"). Writes
 DIR/summary.json (initiation_time_us, branching_time_us, cut_through_time_us (the first time
 the crack grown from the pre-crack tip reaches the right edge; right_edge_time_upper_us and
 _lower_us per branch, branches_at_right_edge), max_tip_speed_m_s, dissipated_energy_J,
@@ -61,7 +63,7 @@ from eigenmpm.fracture import linked
 DEFAULTS = dict(h_mm=0.25, ppc=2, shape="uGIMP", kappaOverH=1.1, alpha=2.0, endTime_us=80.0, dt_us=0.01,
                 dtFraction=0.0, phantom=1.0, notchWidthOverH=2.0, vtkPeriod_us=10.0, E=72e9, nu=0.22, rho=2440.0,
                 Gc=135.0, traction_MPa=12.0, split="spectral", transfer="FLIP", stressUpdate="smallStrain",
-                distributedSetup=True)
+                distributedSetup=True, columnCells=0, rankColumns=1)
 QUICK = dict(h_mm=1.0, endTime_us=40.0, dt_us=0.04)
 
 
@@ -75,7 +77,8 @@ def build(o):
     # The grid leaves 5 mm around the plate: after cut-through the halves fly apart.
     mpm = em.MpmEngine(dim=2, h=h, ppc=o["ppc"], shape=o["shape"], thickness=h, label="plate",
                        domain=((-0.005, -0.005, 0), (L + 0.005, W + 0.005, 0)),
-                       transfer=o["transfer"], stressUpdate=o["stressUpdate"], distributedSetup=o["distributedSetup"])
+                       transfer=o["transfer"], stressUpdate=o["stressUpdate"], distributedSetup=o["distributedSetup"],
+                       columnCells=o["columnCells"], rankColumns=o["rankColumns"])
     glass = em.ElasticMaterial(E=o["E"], nu=o["nu"], rho=o["rho"], planeStress=True, split=o["split"])
     mpm.fill(plate, glass)
     if o["phantom"]:

@@ -5,8 +5,8 @@ Plate 100 mm along x, 40 mm along z (the loading direction), `thickness_mm` alon
 glass E = 72 GPa, nu = 0.22, rho = 2440 kg/m3, Gc = 135 N/m, alpha = 2, kappa = 1.1 h; traction
 12 MPa on the faces z = 0 and z = 40 mm, applied suddenly. The pre-crack is a planar polygon by
 phantom nodes through the whole thickness, from just outside the face x = 0 to the centre at
-mid-height z = 20 mm. The points are divided between ranks in slabs along z, so the plate is as
-tall as it is thick in that direction's many strips. The 2D plate runs plane stress; this one
+mid-height z = 20 mm. The points are divided between ranks in slabs along z (or, with
+rankColumns, in blocks along z and x). The 2D plate runs plane stress; this one
 is the 3D continuum with free faces y = 0 and y = thickness.
 
 The crack's tips, front distance and tip speed are measured in the x-z plane
@@ -19,7 +19,10 @@ Run::
 
 with params h_mm, thickness_mm, ppc, kappaOverH, alpha, endTime_us, dt_us, vtkPeriod_us, Gc,
 traction_MPa, distributedSetup (default 1: under mpiexec each rank builds only its share of the
-points, doc/parallel.md "Memory"; 0: every rank builds the whole scene first). Writes (rank 0)
+points, doc/parallel.md "Memory"; 0: every rank builds the whole scene first), columnCells and
+rankColumns (default 0 and 1: slabs along z; rankColumns=C columnCells=2 puts the ranks in C
+columns along x times N / C rows along z, doc/parallel.md "Decomposition in two directions").
+Writes (rank 0)
 DIR/summary.json (initiation_time_us, branching_time_us, as in crack_branching.py's summary;
 eroded_points, dissipated_energy_J, particles, steps, ranks, wall_time_s, particle_steps_per_s;
 front_profile_mm: for each layer of points through the thickness, its y and the crack front's
@@ -40,7 +43,7 @@ from eigenmpm import plots
 from eigenmpm.cli import checkpointArgs, finish, runSteps, scriptArgs
 
 DEFAULTS = dict(h_mm=1.0, thickness_mm=4.0, ppc=2, kappaOverH=1.1, alpha=2.0, endTime_us=80.0, dt_us=0.04,
-                vtkPeriod_us=10.0, Gc=135.0, traction_MPa=12.0, distributedSetup=True)
+                vtkPeriod_us=10.0, Gc=135.0, traction_MPa=12.0, distributedSetup=True, columnCells=0, rankColumns=1)
 QUICK = dict(h_mm=2.0, endTime_us=40.0, dt_us=0.08)
 
 
@@ -48,6 +51,7 @@ def build(o):
     h, T = o["h_mm"] * 1e-3, o["thickness_mm"] * 1e-3
     L, W = 0.1, 0.04
     mpm = em.MpmEngine(dim=3, h=h, ppc=o["ppc"], label="plate", distributedSetup=o["distributedSetup"],
+                       columnCells=o["columnCells"], rankColumns=o["rankColumns"],
                        domain=((-0.005, -2 * h, -0.005), (L + 0.005, T + 2 * h, W + 0.005)))
     glass = em.ElasticMaterial(E=72e9, nu=0.22, rho=2440.0)
     mpm.fill(pack.inAlignedBox((0, 0, 0), (L, T, W)), glass)

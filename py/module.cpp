@@ -734,8 +734,18 @@ template <class Sv> struct Bind {
             .def("psiMinus", &psiMinus)
             .def("history", &history)
             .def("globalIds", &globalIds)
-            .def("distribute", +[](Sv& s) { s.distribute(std::make_shared<emp::MpiTransport>()); })
-            .def("distributeSetup", +[](Sv& s) { s.distributeSetup(std::make_shared<emp::MpiTransport>()); })
+            .def("distribute", +[](Sv& s, int rankColumns) { s.distribute(std::make_shared<emp::MpiTransport>(), rankColumns); },
+                 (bp::arg("rankColumns") = 1))
+            .def("distributeSetup", +[](Sv& s, int rankColumns) {
+                s.distributeSetup(std::make_shared<emp::MpiTransport>(), rankColumns);
+            }, (bp::arg("rankColumns") = 1))
+            .add_property("rankColumns", +[](const Sv& s) { return s.distribution() ? s.distribution()->rankColumns() : 1; })
+            .def("rankColumnRanges", +[](const Sv& s) {
+                bp::list out;
+                if (s.distribution())
+                    for (int f : s.distribution()->firstColumns()) out.append(f);
+                return out;
+            })
             .add_property("numGlobalPoints", &Sv::numGlobalPoints)
             .def("referencePositions", +[](const Sv& s) {
                 require(s.points().referenced, "referencePositions", "asked of a solver that does not carry them",

@@ -269,6 +269,15 @@ class MpmEngine(PyRunner):
               bounds="[1, inf)"),
         Param("rebalancePeriod", 100, "steps", "under mpiexec: how often the balance is checked (0: never)",
               kind="int", bounds="[0, inf)"),
+        Param("columnCells", 0, "cells", "the order of the sums at the grid nodes follows columns of this many "
+                                         "cells along the first axis (0: none); needed by rankColumns > 1, whose "
+                                         "results are bitwise those of one process with the same columnCells and "
+                                         "at round-off from one without (doc/parallel.md, 'Decomposition in two "
+                                         "directions')", kind="int", bounds="[0, inf)", fixed=True),
+        Param("rankColumns", 1, "", "under mpiexec: the ranks form this many columns along the first axis (x) "
+                                    "times N / rankColumns rows along the last, each rank a block of the grid; "
+                                    "1: slabs along the last axis only (needs a divisor of N, and columnCells "
+                                    "> 0 when above 1)", kind="int", bounds="[1, inf)", fixed=True),
         Param("distributedSetup", False, "", "under mpiexec: every rank keeps only its share of the points "
                                              "from fill()/addPoints() on, so that no rank holds the whole "
                                              "scene (doc/parallel.md, 'Memory'); referencePositions is then "
@@ -285,14 +294,15 @@ class MpmEngine(PyRunner):
                              "out-of-plane thickness of a 2D model; allowed: leave it out (MpmEngine)")
         self.solver = _SOLVERS[(self.dim, self.shape.lower())](h=self.h, ppc=self.ppc, massCutoff=self.massCutoff,
                                                                padding=self.padding, gravity=self.gravity,
-                                                               transfer=self.transfer, stressUpdate=self.stressUpdate)
+                                                               transfer=self.transfer, stressUpdate=self.stressUpdate,
+                                                               columnCells=self.columnCells)
         if self.domain is not None:
             self.solver.setDomain(*self.domain)
         # Where each point was added (m), by point id: output measures displacement from it. A
         # run distributed at set-up keeps it with the points instead (referenceOfPoints()).
         self.referencePositions = np.zeros((0, 3))
         if self.distributedSetup and parallel.worldSize() > 1:
-            self.solver.distributeSetup()
+            self.solver.distributeSetup(self.rankColumns)
             self.referencePositions = None
         if self.crackContact:
             self.solver.setCrackContact(True, self.crackFriction)
@@ -604,7 +614,7 @@ class MpmEngine(PyRunner):
             self._started = True
             self._checkCracks()
             if parallel.worldSize() > 1 and self.solver.steps == 0 and self.solver.ranks == 1:  # mpiexec -n N
-                self.solver.distribute()
+                self.solver.distribute(self.rankColumns)
         # O.iter going back behind this solver means the scene was reloaded without its EigenMPM
         # state (eigenmpm.state): stepping on would continue from a later state, silently wrong.
         # (Forward skips happen: YADE resumes an iteration after an engine that raised.)

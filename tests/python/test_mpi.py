@@ -28,9 +28,9 @@ def _env():
     return env
 
 
-def _run(out, script, ranks, held=False):
+def _run(out, script, ranks, held=False, extra=()):
     cmd = ["yade", "-n", "-j1", "-x", os.path.join(ROOT, "tests", "python", "mpi", script + ".py"), str(out),
-           SCRIPTS[script]] + (["held"] if held else [])
+           SCRIPTS[script]] + (["held"] if held else []) + list(extra)
     if ranks:
         cmd = ["mpiexec", "--oversubscribe", "-n", str(ranks)] + cmd
     res = subprocess.run(cmd, env=_env(), capture_output=True, text=True, timeout=600, stdin=subprocess.DEVNULL)
@@ -85,6 +85,27 @@ def test_mpiexec_runs_the_script_bitwise_as_one_process(tmp_path_factory, tmp_pa
         assert summary["referenceOf"] == one["referenceOf"]
         # damageMap's raster, summed over the ranks, is the one-process raster (with eroded pixels)
         assert summary["raster"] == one["raster"] and one["raster"][2] > 0
+    for key in ("kinetic", "elastic", "work"):
+        assert summary[key] == pytest.approx(one[key], rel=1e-12)
+    assert summary["reaction"] == pytest.approx(one["reaction"], rel=1e-12)
+
+
+@pytest.mark.parametrize("ranks,cols,held", [(4, 2, False), (3, 3, True)])
+def test_blocks_in_two_directions_run_the_script_bitwise_as_one_process_with_the_same_columns(
+        tmp_path_factory, tmp_path, ranks, cols, held):
+    """MpmEngine(columnCells=2, rankColumns=cols): the ranks in cols columns along x times rows
+    along y (2 x 2, and 1 x 3 distributed at set-up), against one process with columnCells=2."""
+    if "cols" not in _single:
+        _single["cols"] = _run(tmp_path_factory.mktemp("notched_cols"), "notched_plate", 0, extra=["cols=1"])
+    one, ref, refIds = _single["cols"]
+    summary, arrays, ids = _run(tmp_path, "notched_plate", ranks, held, extra=[f"cols={cols}"])
+    assert summary["ranks"] == ranks and summary["rankColumns"] == cols and one["rankColumns"] == 1
+    assert sorted(ids.tolist()) == list(range(len(refIds)))
+    assert one["eroded"] > 50
+    for key in ("x", "v", "stress", "damage"):
+        assert np.array_equal(arrays[key], ref[key]), key
+    for key in ("eroded", "dissipated", "front", "x"):
+        assert summary[key] == one[key], key
     for key in ("kinetic", "elastic", "work"):
         assert summary[key] == pytest.approx(one[key], rel=1e-12)
     assert summary["reaction"] == pytest.approx(one["reaction"], rel=1e-12)

@@ -3,9 +3,11 @@ and under mpiexec (tests/python/test_mpi.py): every rank writes its points by id
 OUT/rank-R.npz and rank 0 the engine's totals to OUT/summary.json; a VTKRecorder writes
 OUT/vtk/plate-*.vtp (under mpiexec: a piece per rank and a .pvtp).
 
-    [mpiexec -n N] yade -n -x tests/python/mpi/notched_plate.py OUT [steps] [held]
+    [mpiexec -n N] yade -n -x tests/python/mpi/notched_plate.py OUT [steps] [held] [cols=C]
 
 `held`: the engine distributes its points at set-up (MpmEngine(distributedSetup=True)).
+`cols=C`: columns of 2 cells (MpmEngine(columnCells=2)) and, under mpiexec, C columns of ranks
+(rankColumns=C): a decomposition in two directions (doc/parallel.md).
 """
 import json
 import os
@@ -18,11 +20,12 @@ import eigenmpm as em
 
 out = sys.argv[1]
 steps = int(sys.argv[2]) if len(sys.argv) > 2 else 300
-held = sys.argv[3:] == ["held"]
+held = "held" in sys.argv[3:]
+cols = [int(a[5:]) for a in sys.argv[3:] if a.startswith("cols=")]
 os.makedirs(out, exist_ok=True)
 h = 1e-3
 mpm = em.MpmEngine(dim=2, h=h, thickness=h, label="plate", domain=((-0.003, -0.003, 0), (0.027, 0.027, 0)),
-                   distributedSetup=held)
+                   distributedSetup=held, columnCells=2 if cols else 0, rankColumns=cols[0] if cols else 1)
 glass = em.ElasticMaterial(E=72e9, nu=0.22, rho=2440, planeStress=True)
 mpm.fill(pack.inAlignedBox((0, 0, -1), (0.024, 0.024, 1)) - pack.inAlignedBox((-1, 0.0115, -1), (0.008, 0.0125, 1)), glass)
 mpm.traction(points=pack.inAlignedBox((-1, 0.023, -1), (1, 1, 1)), traction=(0, 12e6, 0))
@@ -38,7 +41,7 @@ vtk.finalRecord()
 s = mpm.solver
 np.savez(os.path.join(out, f"rank-{em.parallel.rank()}.npz"), ids=s.globalIds(), x=s.positions(), v=s.velocities(),
          stress=s.stress(), damage=s.damage())
-summary = {"ranks": s.ranks, "points": mpm.numPoints(), "setup": setup, "held": mpm.referencePositions is None, "eroded": crack.erodedCount(), "dissipated": crack.dissipatedEnergy(),
+summary = {"ranks": s.ranks, "rankColumns": s.rankColumns, "points": mpm.numPoints(), "setup": setup, "held": mpm.referencePositions is None, "eroded": crack.erodedCount(), "dissipated": crack.dissipatedEnergy(),
            "kinetic": mpm.kineticEnergy(), "elastic": mpm.elasticEnergy(), "work": mpm.externalWork(),
            "reaction": list(s.reaction(0)), "front": crack.frontDistance(),
            "x": em.parallel.gather(mpm, s.positions()).tolist()[:5]}
