@@ -30,6 +30,8 @@
 // (a later scene in one process reuses the pages an earlier one freed).
 // --mpi distributes the block over the ranks of mpiexec (doc/parallel.md; needs --steps):
 //   mpiexec -n 2 bench_block --mpi --cases gimp2 --sizes 1e6 --threads 1 --steps 20
+// with --column-cells W --rank-columns C in C columns of ranks along x (a decomposition in two
+// directions; --column-cells alone orders one process's sums by those columns).
 // Then rank 0 prints the whole scene's rate (its points over the slowest rank's time) and the
 // bytes each rank sent per step (the most of any rank); no checksum.
 #include <chrono>
@@ -63,6 +65,7 @@ struct Options {
     emp::Transfer transfer = emp::Transfer::flip;
     emp::StressUpdate stressUpdate = emp::StressUpdate::smallStrain;
     bool mpi = false;
+    int columnCells = 0, rankColumns = 1;  ///< the scheduler's columns; --mpi: columns of ranks
 };
 
 /// The MPI transport, counting the bytes this rank sends (exchanges, reductions, gathers).
@@ -147,7 +150,8 @@ std::vector<std::string> splitNames(const std::string& s)
 {
     std::fprintf(stderr,
                  "bench_block: %s\nusage: bench_block [--sizes 1e5,1e6] [--threads 1,2] [--min-time S]\n"
-                 "       [--warmup N] [--cases gimp2,linear2,gimp3] [--size3d N] [--steps N] [--amp A] [--quick]\n",
+                 "       [--warmup N] [--cases gimp2,linear2,gimp3] [--size3d N] [--steps N] [--amp A] [--quick]\n"
+                 "       [--column-cells W] [--mpi [--rank-columns C]]\n",
                  msg);
     std::exit(2);
 }
@@ -170,6 +174,8 @@ Options parse(int argc, char** argv)
         else if (a == "--cases") o.cases = splitNames(next());
         else if (a == "--size3d") o.size3d = std::stod(next());
         else if (a == "--mpi") o.mpi = true;
+        else if (a == "--column-cells") o.columnCells = std::stoi(next());
+        else if (a == "--rank-columns") o.rankColumns = std::stoi(next());
         else if (a == "--transfer") {
             o.transfer = emp::transferOf(next());
             if (o.transfer == emp::Transfer::unset) usage("--transfer takes FLIP or APIC");
@@ -189,6 +195,7 @@ Options parse(int argc, char** argv)
     for (int t : o.threads)
         if (t < 1) usage("thread counts must be >= 1");
     if (o.mpi && o.steps <= 0) usage("--mpi needs --steps N (every rank steps the same number of times)");
+    if (o.rankColumns > 1 && (!o.mpi || o.columnCells <= 0)) usage("--rank-columns needs --mpi and --column-cells W > 0");
     return o;
 }
 
@@ -224,6 +231,7 @@ template <int D, class K> emp::Solver<D, K> makeBlock(const std::array<int, D>& 
     s.ppc = ppc;
     s.transfer = o.transfer;
     s.stressUpdate = o.stressUpdate;
+    s.columnCells = o.columnCells;
     emp::Solver<D, K> solver(s);
     const int mat = solver.addMaterial(E, nu, rho, false, emp::lawIndex("spectral"));
     const double dx = h / ppc, vol = std::pow(dx, D);
@@ -294,7 +302,8 @@ Result runOnce(const std::string& name, const std::array<int, D>& n, int threads
     const double rss0 = statusBytes("VmRSS:");
     auto solver = makeBlock<D, K>(n, o.amp, o);
     const double dt = 0.5 * solver.criticalTimeStep();
-    if (o.mpi) solver.distribute(std::shared_ptr<emp::Transport>(std::shared_ptr<void>(), mpiTransport()));
+    if (o.mpi)
+        solver.distribute(std::shared_ptr<emp::Transport>(std::shared_ptr<void>(), mpiTransport()), o.rankColumns);
     for (int i = 0; i < o.warmup; ++i) solver.step(dt, threads);
     Result r;
     r.caseName = name;

@@ -131,9 +131,16 @@ public:
         }
     }
 
-    /// The colours of a scatter, run one after the other: 2 without columns (the strips'
-    /// parity), 4 with (the strips' parity, then the columns').
-    int numPhases() const { return numColumns_ > 1 ? 4 : 2; }
+    /// The colours of a scatter, run one after the other: 2 (the strips' parity; with columns,
+    /// each strip's even columns, then its odd ones), or 4 with columns and separate phases (the
+    /// strips' parity, then the columns', each over all the strips of the first).
+    int numPhases() const { return numColumns_ > 1 && separatePhases_ ? 4 : 2; }
+    /// With columns: whether the columns' two colours are phases of their own, each over every
+    /// strip of its colour (a decomposition in two directions hands partial sums on between
+    /// them), or run strip by strip (one process; a node receives its contributions in the same
+    /// order either way, since strips of one colour share no node, and a strip's nodes are read
+    /// from the caches once).
+    void setSeparatePhases(bool on) { separatePhases_ = on; }
     /// The colour of tile (strip s, column c): the phase that writes it.
     int colourOf(int s, int c) const { return numColumns_ > 1 ? 2 * (s & 1) + (c & 1) : s & 1; }
 
@@ -150,6 +157,14 @@ public:
             for (int t = 0; t < nRanges; ++t)
                 for (int s = split_[t] + ((split_[t] & 1) != phase); s < split_[t + 1]; s += 2)
                     f(stripStart_[s], stripStart_[s + 1]);
+            return;
+        }
+        if (!separatePhases_) {
+#pragma omp parallel for schedule(static, 1) num_threads(nThreads)
+            for (int t = 0; t < nRanges; ++t)
+                for (int s = split_[t] + ((split_[t] & 1) != phase); s < split_[t + 1]; s += 2)
+                    for (int parity = 0; parity < 2; ++parity)
+                        for (int c = parity; c < nc; c += 2) f(tileStart_[s * nc + c], tileStart_[s * nc + c + 1]);
             return;
         }
         const int colour = phase >> 1, parity = phase & 1;
@@ -284,6 +299,7 @@ private:
     static constexpr int minChunk = 4096;
     std::vector<int> order_, stripStart_, tileStart_, keyOf_, chunkFill_, split_;
     int columnCells_ = 0, numColumns_ = 1;
+    bool separatePhases_ = false;
 };
 
 }  // namespace emp

@@ -46,6 +46,7 @@ template <int D, class K> struct Rank {
     void bin(const Grid<D>& g, int columnCells, int threads)
     {
         sch.setColumns(columnCells);
+        sch.setSeparatePhases(true);
         ASSERT_EQ(sch.template bin<K>(x, g, threads), -1);
         sum.assign(g.numNodes(), 0.0);
     }

@@ -170,11 +170,14 @@ TEST(Scheduler, ScatterWithColumnsGivesEveryNodeItsContributionsInOneOrderWhatev
     // between the strips' two colours.
     Scene sc;
     std::vector<std::vector<int>> first;
+    for (bool separate : {true, false})  // (the columns' colours as phases of their own, or strip by strip)
     for (int binThreads : {1, 2, 3})
         for (int threads : {1, 2, 3}) {
             Scheduler<D> sch;
             sch.setColumns(2);
+            sch.setSeparatePhases(separate);
             ASSERT_EQ(sch.bin<K>(sc.x, sc.g, binThreads), -1);
+            ASSERT_EQ(sch.numPhases(), separate ? 4 : 2);
             ASSERT_GT(sch.numColumns(), 2);
             const auto& order = sch.order();
             std::vector<std::vector<int>> writers(sc.g.numNodes());
@@ -191,7 +194,7 @@ TEST(Scheduler, ScatterWithColumnsGivesEveryNodeItsContributionsInOneOrderWhatev
                 for (int i = b0; i < b0 + K::S; ++i)
                     for (int j = b1; j < b1 + K::S; ++j) writers[j * sc.g.stride[1] + i].push_back(k);
             }, [&](int phase) {
-                if (phase == 1) between = true;  // (after the even strips' two colours of columns)
+                if (phase == sch.numPhases() / 2 - 1) between = true;  // (after the even strips)
             });
             EXPECT_FALSE(wrong.load()) << binThreads << " workers binned, " << threads << " threads";
             for (std::size_t k = 0; k < visits.size(); ++k) ASSERT_EQ(visits[k], 1) << "slot " << k;
@@ -212,7 +215,8 @@ TEST(Scheduler, ScatterWithColumnsGivesEveryNodeItsContributionsInOneOrderWhatev
             if (first.empty())
                 first = writers;
             else
-                EXPECT_EQ(writers, first) << binThreads << " workers binned, " << threads << " threads";
+                EXPECT_EQ(writers, first) << binThreads << " workers binned, " << threads << " threads, "
+                                          << (separate ? "separate" : "strip by strip");
         }
 }
 
