@@ -142,6 +142,15 @@ public:
     int columnHi() const { return colHi_; }
     int ownedColumnLo() const { return ownedColLo_; }
     int ownedColumnHi() const { return ownedColHi_; }
+    /// The columns this rank's scatters defer to the second phase of each strip colour
+    /// (Scheduler::setSeparatePhases): its first and last columns where they are odd and meet
+    /// another rank's (-1: none).
+    std::array<int, 2> deferredColumns() const
+    {
+        if (cols_ == 1) return {-1, -1};
+        const int c = column(), lo = firstCol_[c], hi = firstCol_[c + 1] - 1;
+        return {c > 0 && lo % 2 == 1 ? lo : -1, c < cols_ - 1 && hi % 2 == 1 ? hi : -1};
+    }
     /// The rank of the tile (strip s, Scheduler column c).
     int rankOf(int s, int c) const
     {

@@ -133,14 +133,25 @@ public:
 
     /// The colours of a scatter, run one after the other: 2 (the strips' parity; with columns,
     /// each strip's even columns, then its odd ones), or 4 with columns and separate phases (the
-    /// strips' parity, then the columns', each over all the strips of the first).
+    /// strips' parity, then the columns').
     int numPhases() const { return numColumns_ > 1 && separatePhases_ ? 4 : 2; }
-    /// With columns: whether the columns' two colours are phases of their own, each over every
-    /// strip of its colour (a decomposition in two directions hands partial sums on between
-    /// them), or run strip by strip (one process; a node receives its contributions in the same
-    /// order either way, since strips of one colour share no node, and a strip's nodes are read
-    /// from the caches once).
-    void setSeparatePhases(bool on) { separatePhases_ = on; }
+    /// With columns: whether the columns' two colours are phases of their own, for a
+    /// decomposition in two directions, which hands partial sums on between them (ScatterChain).
+    /// Phase 2a then runs the strips of parity a strip by strip, each strip's even columns, then
+    /// its odd ones but the `deferred` columns (-1: none), and phase 2a + 1 the deferred
+    /// columns of those strips: a rank defers its odd columns at its boundaries with other
+    /// ranks, the only tiles that write nodes another rank's tiles write. Every node receives
+    /// its contributions in the same order as without separate phases (by tile colour; strips
+    /// of one colour share no node, and a deferred tile's neighbours in its strip are even),
+    /// and a strip's nodes are read from the caches once but at those columns.
+    void setSeparatePhases(bool on, int deferredLo = -1, int deferredHi = -1)
+    {
+        require((deferredLo < 0 || deferredLo % 2 == 1) && (deferredHi < 0 || deferredHi % 2 == 1), "deferred columns",
+                std::to_string(deferredLo) + ", " + std::to_string(deferredHi), "odd columns, or -1 for none");
+        separatePhases_ = on;
+        deferred_[0] = deferredLo;
+        deferred_[1] = deferredHi;
+    }
     /// The colour of tile (strip s, column c): the phase that writes it.
     int colourOf(int s, int c) const { return numColumns_ > 1 ? 2 * (s & 1) + (c & 1) : s & 1; }
 
@@ -167,11 +178,20 @@ public:
                         for (int c = parity; c < nc; c += 2) f(tileStart_[s * nc + c], tileStart_[s * nc + c + 1]);
             return;
         }
-        const int colour = phase >> 1, parity = phase & 1;
+        const int colour = phase >> 1, a = deferred_[0], b = deferred_[1];
+        const auto tile = [&](int s, int c) { f(tileStart_[s * nc + c], tileStart_[s * nc + c + 1]); };
 #pragma omp parallel for schedule(static, 1) num_threads(nThreads)
         for (int t = 0; t < nRanges; ++t)
-            for (int s = split_[t] + ((split_[t] & 1) != colour); s < split_[t + 1]; s += 2)
-                for (int c = parity; c < nc; c += 2) f(tileStart_[s * nc + c], tileStart_[s * nc + c + 1]);
+            for (int s = split_[t] + ((split_[t] & 1) != colour); s < split_[t + 1]; s += 2) {
+                if (phase & 1) {  // the deferred columns
+                    if (a >= 0 && a < nc) tile(s, a);
+                    if (b >= 0 && b < nc && b != a) tile(s, b);
+                    continue;
+                }
+                for (int c = 0; c < nc; c += 2) tile(s, c);
+                for (int c = 1; c < nc; c += 2)
+                    if (c != a && c != b) tile(s, c);
+            }
     }
 
     /// Calls f(slot, acc) for every slot where f writes only its own point, with an accumulator
@@ -300,6 +320,7 @@ private:
     std::vector<int> order_, stripStart_, tileStart_, keyOf_, chunkFill_, split_;
     int columnCells_ = 0, numColumns_ = 1;
     bool separatePhases_ = false;
+    int deferred_[2] = {-1, -1};
 };
 
 }  // namespace emp

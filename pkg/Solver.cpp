@@ -107,7 +107,10 @@ template <int D, class K> void Solver<D, K>::schedulePoints(int nThreads)
     // A point off the grid (moved there by the user, or left there by a step that stopped with
     // an error) would write outside the nodal arrays: refused here.
     const int off = schedule_.template bin<K>(points_.x, grid_, nThreads);
-    schedule_.setSeparatePhases(dist_ && dist_->rankColumns() > 1);  // (ScatterChain's phases)
+    if (dist_ && dist_->rankColumns() > 1) {  // (ScatterChain's phases)
+        const auto deferred = dist_->deferredColumns();
+        schedule_.setSeparatePhases(true, deferred[0], deferred[1]);
+    }
     if (off >= 0) {
         const auto& g = grid_;
         Vec<D> hiCorner;

@@ -43,10 +43,11 @@ template <int D, class K> struct Rank {
     std::vector<int> id;
     Scheduler<D> sch;
     std::vector<double> sum;
-    void bin(const Grid<D>& g, int columnCells, int threads)
+    /// deferred: the columns this rank's phases defer (Distribution::deferredColumns).
+    void bin(const Grid<D>& g, int columnCells, int threads, std::array<int, 2> deferred = {-1, -1})
     {
         sch.setColumns(columnCells);
-        sch.setSeparatePhases(true);
+        sch.setSeparatePhases(true, deferred[0], deferred[1]);
         ASSERT_EQ(sch.template bin<K>(x, g, threads), -1);
         sum.assign(g.numNodes(), 0.0);
     }
@@ -93,7 +94,10 @@ template <int D, class K> void checkChain(int columnCells, const Blocks& blocks,
     }
     std::vector<ScatterChain<D>> chain;
     for (int r = 0; r < R; ++r) {
-        ranks[r].bin(g, columnCells, threads);
+        // A rank defers its odd columns at its boundaries with other ranks' columns.
+        const int c = r % blocks.cols(), lo = blocks.columns[c], hi = blocks.columns[c + 1] - 1;
+        ranks[r].bin(g, columnCells, threads,
+                     {c > 0 && lo % 2 == 1 ? lo : -1, c < blocks.cols() - 1 && hi % 2 == 1 ? hi : -1});
         chain.emplace_back(n, K::S, Scheduler<D>::stripWidth, columnCells, blocks, r);
         ASSERT_EQ(chain[r].numPhases(), one.sch.numPhases());
     }
