@@ -46,7 +46,7 @@ void Distribution<D>::partition(MaterialPoints<D>& P, const std::vector<int>& st
     if (cols_ > 1) {
         std::vector<double> perColumn(numColumns_, 0.0);
         for (int c : columnOf) ++perColumn[c];
-        firstCol = balancedRanges(perColumn, cols_);
+        firstCol = nearestRanges(perColumn, cols_);
     }
     setRanges(first, S, nLast, firstCol);
     // Keep this rank's points, numbered by their index in the whole scene.
@@ -92,7 +92,7 @@ void Distribution<D>::partitionHeld(MaterialPoints<D>& P, const std::vector<int>
     for (std::size_t p = 0; p < stripOf.size(); ++p)
         if (stripOf[p] >= 0) ++perColumn[columnOf[p]];
     t_->sum(perColumn.data(), numColumns_);
-    setRanges(first, S, nLast, balancedRanges(perColumn, cols_));
+    setRanges(first, S, nLast, nearestRanges(perColumn, cols_));
     std::vector<int> to(stripOf.size());
     for (std::size_t p = 0; p < stripOf.size(); ++p) to[p] = stripOf[p] < 0 ? rank_ : rankOf(stripOf[p], columnOf[p]);
     sendPoints(P, to, false);
@@ -161,6 +161,24 @@ template <int D> void Distribution<D>::sendPoints(MaterialPoints<D>& P, const st
         for (std::size_t k = 0; k < total; ++k) sorted[k] = a[order[k]];
         a.swap(sorted);
     });
+}
+
+template <int D> std::vector<int> Distribution<D>::nearestRanges(const std::vector<double>& count, int ranks)
+{
+    // Boundary r at the column boundary whose points before it are nearest to r/ranks of all
+    // (the earlier one on a tie); at least one column each. (Whole numbers: exact sums.)
+    const int n = static_cast<int>(count.size());
+    std::vector<double> before(n + 1, 0.0);
+    for (int c = 0; c < n; ++c) before[c + 1] = before[c] + count[c];
+    std::vector<int> first(ranks + 1, 0);
+    first[ranks] = n;
+    for (int r = 1; r < ranks; ++r) {
+        const double share = before[n] * r / ranks;
+        int b = static_cast<int>(std::lower_bound(before.begin(), before.end(), share) - before.begin());
+        if (b > 0 && share - before[b - 1] <= before[std::min(b, n)] - share) --b;
+        first[r] = std::min(std::max(b, first[r - 1] + 1), n - (ranks - r));
+    }
+    return first;
 }
 
 template <int D> std::vector<int> Distribution<D>::balancedRanges(const std::vector<double>& count, int ranks)
@@ -360,7 +378,7 @@ template <int D> void Distribution<D>::applyRecordsBlocks(std::vector<NodeRecord
     std::vector<Bytes> out(neighbours_.size());
     std::vector<int> writers;
     for (const auto& r : mine) {
-        writersOf(r.node, writers);
+        writersOf(r.regular, writers);
         for (int q : writers)
             if (q != rank_) out[slotOf(q)].put(r);
     }

@@ -100,7 +100,8 @@ struct NodeField {
 /// (the single-process order: stage, then the point's or condition's order in it).
 template <int D> struct NodeRecord {
     std::int64_t key[2];
-    int node;
+    int node;     ///< a regular node or a phantom twin
+    int regular;  ///< the regular node (the twin's), whose ranks receive the record
     double value[D];
 };
 
@@ -180,6 +181,9 @@ public:
     /// The first strip of each of `ranks` ranges (and numStrips at the end) that split the points
     /// counted per strip in `count` nearly equally, at least one strip each.
     static std::vector<int> balancedRanges(const std::vector<double>& count, int ranks);
+    /// The same, each boundary the one nearest to its share (columns are wide: the first that
+    /// reaches the share may overshoot it by most of a column).
+    static std::vector<int> nearestRanges(const std::vector<double>& count, int ranks);
 
     /// Load balance when fragments fly apart: counts the points of every strip over all ranks,
     /// and when the rank holding most holds more than `tolerance` times the mean, chooses
@@ -415,7 +419,7 @@ bool Distribution<D>::rebalanceBlocks(MaterialPoints<D>& P, TileOf&& tileOf, dou
     if (imbalance_ <= tolerance) return false;
     const std::vector<int> rowsNext = balancedRanges(std::vector<double>(count.begin(), count.begin() + numStrips), rows());
     const std::vector<int> colsNext =
-        balancedRanges(std::vector<double>(count.begin() + numStrips, count.begin() + numStrips + numColumns_), cols_);
+        nearestRanges(std::vector<double>(count.begin() + numStrips, count.begin() + numStrips + numColumns_), cols_);
     for (int r = 0; r < rows(); ++r)
         if (rowsNext[r + 1] - rowsNext[r] < minStrips) return false;
     for (int c = 0; c < cols_; ++c)

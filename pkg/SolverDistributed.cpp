@@ -112,7 +112,7 @@ void Solver<D, K>::addNodeForce(int I, const Vec<D>& f, std::int64_t key0, std::
         grid_.force[I] += f;
         return;
     }
-    NodeRecord<D> r{{key0, key1}, I, {}};
+    NodeRecord<D> r{{key0, key1}, I, regular, {}};
     for (int d = 0; d < D; ++d) r.value[d] = f[d];
     (side < 0 ? recordsLeft_ : recordsRight_).push_back(r);
 }
