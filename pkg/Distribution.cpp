@@ -371,24 +371,31 @@ template <int D> bool Distribution<D>::sharedNode(int I) const
     return ranks.size() > 1;
 }
 
-template <int D> void Distribution<D>::applyRecordsBlocks(std::vector<NodeRecord<D>>& mine, NodeField f)
+template <int D>
+template <class T, class NodeOf>
+void Distribution<D>::shareWithWriters(std::vector<T>& items, NodeOf&& nodeOf)
 {
-    // Each contribution goes to the other ranks that write its node; every writer then applies
-    // all of them in key order.
     std::vector<Bytes> out(neighbours_.size());
     std::vector<int> writers;
-    for (const auto& r : mine) {
-        writersOf(r.regular, writers);
+    for (const T& item : items) {
+        writersOf(nodeOf(item), writers);
         for (int q : writers)
-            if (q != rank_) out[slotOf(q)].put(r);
+            if (q != rank_) out[slotOf(q)].put(item);
     }
     std::vector<std::vector<char>> bytes(neighbours_.size());
     for (std::size_t i = 0; i < out.size(); ++i) bytes[i].swap(out[i].data);
     for (auto& theirs : t_->neighbourExchange(neighbours_, bytes)) {
         Bytes b;
         b.data.swap(theirs);
-        while (!b.done()) mine.push_back(b.template get<NodeRecord<D>>());
+        while (!b.done()) items.push_back(b.template get<T>());
     }
+}
+
+template <int D> void Distribution<D>::applyRecordsBlocks(std::vector<NodeRecord<D>>& mine, NodeField f)
+{
+    // Each contribution goes to the other ranks that write its node; every writer then applies
+    // all of them in key order.
+    shareWithWriters(mine, [](const NodeRecord<D>& r) { return r.regular; });
     std::stable_sort(mine.begin(), mine.end(), [](const NodeRecord<D>& a, const NodeRecord<D>& c) {
         return a.key[0] != c.key[0] ? a.key[0] < c.key[0] : a.key[1] < c.key[1];
     });
@@ -572,20 +579,7 @@ template <int D> void Distribution<D>::restoreBox(Grid<D>& g, const int* lo, con
 template <int D> void Distribution<D>::shareNodes(const Grid<D>& g, std::vector<int>& nodes)
 {
     if (cols_ > 1) {  // every node goes to the other ranks that write it
-        std::vector<Bytes> out(neighbours_.size());
-        std::vector<int> writers;
-        for (int I : nodes) {
-            writersOf(I, writers);
-            for (int q : writers)
-                if (q != rank_) out[slotOf(q)].put(I);
-        }
-        std::vector<std::vector<char>> bytes(neighbours_.size());
-        for (std::size_t i = 0; i < out.size(); ++i) bytes[i].swap(out[i].data);
-        for (auto& theirs : t_->neighbourExchange(neighbours_, bytes)) {
-            Bytes b;
-            b.data.swap(theirs);
-            while (!b.done()) nodes.push_back(b.get<int>());
-        }
+        shareWithWriters(nodes, [](int I) { return I; });
         return;
     }
     Bytes toLeft, toRight, fromLeft, fromRight;

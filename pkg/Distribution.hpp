@@ -275,6 +275,9 @@ private:
     void sendPoints(MaterialPoints<D>& P, const std::vector<int>& to, bool neighboursOnly);
     /// The passes of ScatterChain after phase k: node values to and from the neighbours.
     void passChain(int k, const Grid<D>& g, const std::vector<NodeField>& fields);
+    /// Sends each item to the other ranks that write its regular node (nodeOf(item)) and appends
+    /// what the neighbours sent this rank.
+    template <class T, class NodeOf> void shareWithWriters(std::vector<T>& items, NodeOf&& nodeOf);
     /// applyRecords and ghosts with columns of ranks: with the neighbours in the grid of ranks.
     void applyRecordsBlocks(std::vector<NodeRecord<D>>& mine, NodeField f);
     void ghostsBlocks(const MaterialPoints<D>& P, const Grid<D>& g, double reach, GhostPoints<D>& out);

@@ -327,6 +327,23 @@ TEST(Distribution, VelocityConditionsOnPointsAcrossRanks)
 /// Two rows of two ranks on 4 ranks; else one row, every rank a column of its own.
 int rankColumns() { return transport()->size() == 4 ? 2 : transport()->size(); }
 
+/// A soft block over the cells [lo, hi) moving with v(x), in the domain from (-0.05, -0.05) to
+/// `top`; with `baseY`, its nodes at y <= baseY held in y.
+template <class K>
+void softBlock(emp::Solver<2, K>& s, const Eigen::Vector3d& top, std::array<int, 2> lo, std::array<int, 2> hi,
+               const std::function<Vec<2>(const Vec<2>&)>& v, double baseY = -1)
+{
+    const int m = s.addMaterial(1e6, 0.3, 1000, false, emp::lawIndex("spectral"));
+    s.setDomain(Eigen::Vector3d(-0.05, -0.05, 0), top);
+    emptest::addBlock<2, K>(s, lo, hi, m, v);
+    if (baseY < 0) return;
+    std::vector<int> base;
+    s.initialize();
+    for (int I = 0; I < s.grid().numNodes(); ++I)
+        if (s.grid().nodePosition(I)[1] <= baseY) base.push_back(I);
+    s.addVelocityCondition(base, {}, 2u, Eigen::Vector3d::Zero(), 0);
+}
+
 TEST(DistributionBlocks, AFlyingSpinningBlockCrossesRowsAndColumnsBitwise)
 {
     for (const auto& [transfer, update] : {std::pair{emp::Transfer::apic, emp::StressUpdate::corotational},
@@ -337,9 +354,7 @@ TEST(DistributionBlocks, AFlyingSpinningBlockCrossesRowsAndColumnsBitwise)
         settings.gravity = Eigen::Vector3d(0, -9.81, 0);
         settings.columnCells = 2;
         const auto build = [](emp::Solver<2, emp::GimpKernel>& s) {
-            const int m = s.addMaterial(1e6, 0.3, 1000, false, emp::lawIndex("spectral"));
-            s.setDomain(Eigen::Vector3d(-0.05, -0.05, 0), Eigen::Vector3d(0.3, 0.6, 0));
-            emptest::addBlock<2, emp::GimpKernel>(s, {2, 2}, {12, 10}, m, [](const Vec<2>& x) {
+            softBlock<emp::GimpKernel>(s, Eigen::Vector3d(0.3, 0.6, 0), {2, 2}, {12, 10}, [](const Vec<2>& x) {
                 return Vec<2>(1.2 - 2.0 * (x[1] - 0.06), 8.0 + 2.0 * (x[0] - 0.07));
             });
         };
@@ -379,16 +394,10 @@ TEST(DistributionBlocks, LinearShapesInColumnsOfOneCell)
     settings.gravity = Eigen::Vector3d(0.5, -9.81, 0);
     settings.columnCells = 1;
     const auto build = [](emp::Solver<2, emp::LinearKernel>& s) {
-        const int m = s.addMaterial(1e6, 0.3, 1000, false, emp::lawIndex("spectral"));
-        s.setDomain(Eigen::Vector3d(-0.05, -0.05, 0), Eigen::Vector3d(0.25, 0.3, 0));
         std::mt19937 rng(8);
         std::uniform_real_distribution<double> u(-0.5, 0.5);
-        emptest::addBlock<2, emp::LinearKernel>(s, {1, 1}, {18, 20}, m, [&](const Vec<2>&) { return Vec<2>(u(rng), u(rng)); });
-        std::vector<int> base;
-        s.initialize();
-        for (int I = 0; I < s.grid().numNodes(); ++I)
-            if (s.grid().nodePosition(I)[1] <= 0.01) base.push_back(I);
-        s.addVelocityCondition(base, {}, 2u, Eigen::Vector3d::Zero(), 0);
+        softBlock<emp::LinearKernel>(s, Eigen::Vector3d(0.25, 0.3, 0), {1, 1}, {18, 20},
+                                     [&](const Vec<2>&) { return Vec<2>(u(rng), u(rng)); }, 0.01);
     };
     const auto o = compare<2, emp::LinearKernel>(settings, build, 200, 0.5, 1, rankColumns());
     EXPECT_EQ(o.differing, 0);
@@ -443,9 +452,7 @@ TEST(DistributionBlocks, RebalancesABlockFlyingAcrossRowsAndColumns)
     settings.gravity = Eigen::Vector3d(0, -9.81, 0);
     settings.columnCells = 2;
     const auto build = [](emp::Solver<2, emp::GimpKernel>& s) {
-        const int m = s.addMaterial(1e6, 0.3, 1000, false, emp::lawIndex("spectral"));
-        s.setDomain(Eigen::Vector3d(-0.05, -0.05, 0), Eigen::Vector3d(0.45, 0.6, 0));
-        emptest::addBlock<2, emp::GimpKernel>(s, {2, 2}, {12, 10}, m, [](const Vec<2>&) { return Vec<2>(2.5, 8.0); });
+        softBlock<emp::GimpKernel>(s, Eigen::Vector3d(0.45, 0.6, 0), {2, 2}, {12, 10}, [](const Vec<2>&) { return Vec<2>(2.5, 8.0); });
         s.setRebalance(1.05, 5);
     };
     const auto o = compare<2, emp::GimpKernel>(settings, build, 300, 0.5, 1, rankColumns());
