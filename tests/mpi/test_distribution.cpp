@@ -360,7 +360,7 @@ TEST(DistributionBlocks, AFlyingSpinningBlockCrossesRowsAndColumnsBitwise)
         };
         const auto o = compare<2, emp::GimpKernel>(settings, build, 300, 0.5, 1, rankColumns());
         EXPECT_EQ(o.differing, 0);
-        // (The block leaves the ranks behind it without points: nothing is rebalanced yet.)
+        // (The block leaves the ranks behind it without points: this scene does not rebalance.)
         EXPECT_EQ(o.points, 320);
         if (transport()->size() > 1) EXPECT_TRUE(o.migrated);
     }
