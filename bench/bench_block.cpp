@@ -47,6 +47,7 @@
 #include <string>
 #include <vector>
 
+#include "Lanes.hpp"
 #include "Laws.hpp"
 #include "MpiTransport.hpp"
 #include "Solver.hpp"
@@ -414,7 +415,7 @@ int main(int argc, char** argv)
 #else
     const char* isa = "x86-64";
 #endif
-    std::printf("\ninstruction set: %s\n", isa);
+    std::printf("\ninstruction set: %s; lane loops: %s (EIGENMPM_LANES)\n", isa, emp::name(emp::laneIsa()));
     std::printf("peak resident set of the process: %.1f MB; per point of the largest scene: %.0f B\n\n",
                 statusBytes("VmHWM:") / 1e6, [&] {
                     long most = 1;
@@ -425,9 +426,10 @@ int main(int argc, char** argv)
         std::printf("JSON {\"case\": \"%s\", \"points\": %ld, \"threads\": %d, \"steps\": %ld, \"wall_time_s\": %.4f, \"cpu_time_s\": %.4f, "
                     "\"particle_steps_per_s\": %.6g, \"ratio_to_first_thread_count\": %.4f, \"resident_bytes_per_point\": %.1f, "
                     "\"checksum\": \"%016" PRIx64 "\", \"bitwise_equal_to_first\": %s, \"ranks\": %d, \"bytes_sent_per_step\": %.0f, "
-                    "\"isa\": \"%s\"}\n",
+                    "\"isa\": \"%s\", \"lanes\": \"%s\"}\n",
                     r.caseName.c_str(), r.points, r.threads, r.steps, r.wall, r.cpu, r.pps, r.ratio, r.bytesPerPoint, r.checksum,
-                    r.checked ? (r.deterministic ? "true" : "false") : "null", r.ranks, r.bytesSentPerStep, isa);
+                    r.checked ? (r.deterministic ? "true" : "false") : "null", r.ranks, r.bytesSentPerStep, isa,
+                    emp::name(emp::laneIsa()));
     if (!allSame) {
         std::fprintf(stderr, "bench_block: results differ between thread counts (determinism broken)\n");
         return 3;

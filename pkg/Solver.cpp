@@ -10,6 +10,7 @@
 
 #include "CrackTransport.hpp"
 #include "Errors.hpp"
+#include "Lanes.hpp"
 #include "Laws.hpp"
 
 namespace emp {
@@ -348,10 +349,10 @@ EMP_ALWAYS_INLINE void Solver<D, K>::lawOfRun2(const int* ids, int n)
         lambda[i] = m.lambda;
         mu[i] = m.mu;
     }
-#pragma omp simd
-    for (int i = 0; i < n; ++i)
+    forLanes(n, [&](int i) EMP_LAMBDA_INLINE {
         Law::response2(e[0][i], e[1][i], e[2][i], e[3][i], c[i], lambda[i], mu[i], sigma[0][i], sigma[1][i],
                        sigma[2][i], sigma[3][i], psiPlus[i], psiMinus[i]);
+    });
     for (int i = 0; i < n; ++i) {
         const int p = ids[i];
         P.stress[p] << sigma[0][i], sigma[1][i], sigma[2][i], sigma[3][i];
@@ -432,8 +433,7 @@ EMP_ALWAYS_INLINE void Solver<D, K>::corotationalOfRun2(const int* ids, const St
         lambda[i] = m.lambda;
         mu[i] = m.mu;
     }
-#pragma omp simd
-    for (int i = 0; i < n; ++i) {
+    forLanes(n, [&](int i) EMP_LAMBDA_INLINE {
         const Plain2 F = deformationUpdate2(dt, {l[0][i], l[1][i], l[2][i], l[3][i]}, {f[0][i], f[1][i], f[2][i], f[3][i]});
         f[0][i] = F.xx, f[1][i] = F.xy, f[2][i] = F.yx, f[3][i] = F.yy;
         double cr, sr;
@@ -444,7 +444,7 @@ EMP_ALWAYS_INLINE void Solver<D, K>::corotationalOfRun2(const int* ids, const St
                        psiMinus[i]);
         const Plain2 t = cauchyStress2(cr, sr, U, s);
         sigma[0][i] = t.xx, sigma[1][i] = t.xy, sigma[2][i] = t.yx, sigma[3][i] = t.yy;
-    }
+    });
     for (int i = 0; i < n; ++i) {
         const int p = ids[i];
         P.deformationGradient[p] << f[0][i], f[1][i], f[2][i], f[3][i];
@@ -468,8 +468,11 @@ EMP_NOINLINE void Solver<D, K>::corotationalOfRun3(const int* ids, const St* st,
     // the last has converged; a lane that has converged (or was refused) keeps its value. The 3D
     // law stays point by point (its eigenvalues call libm). Out of line, so that its size does
     // not change what GCC inlines into the default 3D stress pass (forcing the 3D polar
-    // decomposition inline there had cost the default pass 7 % more instructions).
-    if constexpr (D == 3) {
+    // decomposition inline there had cost the default pass 7 % more instructions). All of it is
+    // compiled once per lane width (withLaneIsa, pkg/Lanes.hpp), so that GCC vectorises the
+    // lanes' loops in the width the processor has; the arrays stay local to each copy (captured
+    // by reference, GCC would not vectorise the loops for fear of aliasing).
+    if constexpr (D == 3) withLaneIsa([&]() EMP_LAMBDA_INLINE {
         auto& P = points_;
         constexpr int R = stressRun;
         alignas(64) double f[9][R], x[9][R], y[9][R], u[9][R], r[9][R], sig[9][R], state[R];
@@ -551,7 +554,7 @@ EMP_NOINLINE void Solver<D, K>::corotationalOfRun3(const int* ids, const St* st,
         for (int i = 0; i < n; ++i)
             if (state[i] == 2.0)
                 for (int k = 0; k < 9; ++k) P.stress[ids[i]](k / 3, k % 3) = sig[k][i];
-    }
+    });
 }
 
 template <int D, class K> Mat<D> Solver<D, K>::spatialStress(int p, const Mat<D>& s) const

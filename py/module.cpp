@@ -16,6 +16,7 @@
 #include "EigenErosion.hpp"
 #include "ErosionCalibration.hpp"
 #include "Errors.hpp"
+#include "Lanes.hpp"
 #include "Laws.hpp"
 #include "MpiTransport.hpp"
 #include "Solver.hpp"
@@ -810,6 +811,15 @@ template <class Sv> struct Bind {
 BOOST_PYTHON_MODULE(EMP_MODULE_NAME)
 {
     np::initialize();
+    bp::def("laneIsa", +[] { return std::string(name(laneIsa())); },
+            "The vector width of the lane loops (pkg/Lanes.hpp): 'avx512', 'avx2' or 'baseline'.");
+    bp::def("setLaneIsa", +[](const std::string& w) {
+        LaneIsa isa;
+        require(laneIsaOf(w, isa), "lanes", w, "'auto', 'avx512', 'avx2' or 'baseline'");
+        return std::string(name(setLaneIsa(isa)));
+    }, (bp::arg("width")),
+            "Sets the lanes' width (capped at what the processor runs; the results are the same in every width); "
+            "returns the width set.");
     bp::def("lawNames", +[] {
         bp::list l;
         for (const auto& n : lawNames()) l.append(n);

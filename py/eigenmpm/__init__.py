@@ -15,6 +15,9 @@ from ._isa import load as _loadModule
 # The compiled module for this processor (x86-64 or x86-64-v2, bitwise the same results), before
 # any other part of the package imports it; `isa` says which.
 _eigenmpm, isa = _loadModule()
+# The vector width of the lane loops (pkg/Lanes.hpp), the processor's widest unless
+# EIGENMPM_LANES caps it: the same results in every width.
+laneIsa, setLaneIsa = _eigenmpm.laneIsa, _eigenmpm.setLaneIsa
 
 from . import checkpoint, parallel  # noqa: E402
 from .checkpoint import Checkpoint  # noqa: E402

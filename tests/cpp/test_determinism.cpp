@@ -3,6 +3,8 @@
 // without and with the scheduler's columns.
 #include "test_helpers.hpp"
 
+#include "Lanes.hpp"
+
 namespace {
 
 using emp::GimpKernel;
@@ -14,10 +16,14 @@ using emptest::Vec;
 
 /// A block, tall along the last axis (so that the colouring uses many strips), with random
 /// velocities, gravity, a fixed base and a prescribed velocity on top: stresses of both signs.
-template <int D, class K> Solver<D, K> makeScene(int columnCells = 0)
+template <int D, class K>
+Solver<D, K> makeScene(int columnCells = 0, emp::Transfer transfer = emp::Transfer::unset,
+                       emp::StressUpdate update = emp::StressUpdate::unset)
 {
     emp::SolverSettings st = emptest::typicalSettings();
     st.columnCells = columnCells;
+    if (transfer != emp::Transfer::unset) st.transfer = transfer;
+    if (update != emp::StressUpdate::unset) st.stressUpdate = update;
     st.h = 0.05;
     st.ppc = 2;
     st.gravity = Eigen::Vector3d(0.3, -9.81, 0.0);
@@ -138,3 +144,53 @@ TEST(Determinism, ColumnsMoveResultsAtRoundOff2DGimp) { checkColumnsMoveResultsA
 TEST(Determinism, ColumnsMoveResultsAtRoundOff3DLinear) { checkColumnsMoveResultsAtRoundOff<3, LinearKernel>(1); }
 
 }  // namespace
+
+// The lane loops (pkg/Lanes.hpp: the 2D law and co-rotational update, the 3D co-rotational
+// algebra) give the same bits in every vector width the processor runs: the scene above stepped
+// with the baseline's loops and with AVX2's and AVX-512's.
+namespace {
+template <int D, class K> void checkLaneWidthIndependence(emp::Transfer t, emp::StressUpdate u)
+{
+    const emp::LaneIsa widest = emp::processorLaneIsa(), before = emp::laneIsa();
+    if (widest == emp::LaneIsa::baseline) GTEST_SKIP() << "this processor has neither AVX2 nor AVX-512";
+    std::vector<emp::LaneIsa> widths{emp::LaneIsa::baseline, emp::LaneIsa::avx2};
+    if (widest == emp::LaneIsa::avx512) widths.push_back(emp::LaneIsa::avx512);
+    std::vector<Solver<D, K>> runs;
+    runs.reserve(widths.size());
+    for (emp::LaneIsa w : widths) {
+        ASSERT_EQ(emp::setLaneIsa(w), w);
+        runs.push_back(makeScene<D, K>(0, t, u));
+        const double dt = 0.5 * runs.back().criticalTimeStep();
+        for (int n = 0; n < 40; ++n) runs.back().step(dt, 1);
+    }
+    emp::setLaneIsa(before);
+    const auto& A = runs[0].points();
+    for (std::size_t k = 1; k < runs.size(); ++k) {
+        SCOPED_TRACE(emp::name(widths[k]));
+        const auto& B = runs[k].points();
+        EXPECT_EQ(countDifferences(A.x, B.x, "position"), 0);
+        EXPECT_EQ(countDifferences(A.v, B.v, "velocity"), 0);
+        EXPECT_EQ(countDifferences(A.strain, B.strain, "strain"), 0);
+        EXPECT_EQ(countDifferences(A.stress, B.stress, "stress"), 0);
+        EXPECT_EQ(A.history, B.history);
+        if (u == emp::StressUpdate::corotational)
+            EXPECT_EQ(countDifferences(A.deformationGradient, B.deformationGradient, "deformation gradient"), 0);
+    }
+    double maxStress = 0;
+    for (const auto& s : A.stress) maxStress = std::max(maxStress, s.norm());
+    EXPECT_GT(maxStress, 1.0);
+}
+}  // namespace
+
+TEST(Determinism, LaneWidthDoesNotChangeResults2DSmallStrain)
+{
+    checkLaneWidthIndependence<2, GimpKernel>(emp::Transfer::flip, emp::StressUpdate::smallStrain);
+}
+TEST(Determinism, LaneWidthDoesNotChangeResults2DCorotational)
+{
+    checkLaneWidthIndependence<2, GimpKernel>(emp::Transfer::apic, emp::StressUpdate::corotational);
+}
+TEST(Determinism, LaneWidthDoesNotChangeResults3DCorotational)
+{
+    checkLaneWidthIndependence<3, GimpKernel>(emp::Transfer::flip, emp::StressUpdate::corotational);
+}

@@ -14,8 +14,8 @@ ROOT = os.path.dirname(os.path.dirname(HERE))
 V2 = _isa.processorLevel() == "x86-64-v2" and _isa._built("x86-64-v2")
 
 
-def scenes(isa, threads):
-    env = dict(os.environ, EIGENMPM_ISA=isa, OMP_NUM_THREADS=str(threads),
+def scenes(isa, threads, lanes="auto"):
+    env = dict(os.environ, EIGENMPM_ISA=isa, EIGENMPM_LANES=lanes, OMP_NUM_THREADS=str(threads),
                PYTHONPATH=os.path.join(ROOT, "build", "python"))
     r = subprocess.run(["yade", "-n", "-j", str(threads), "-x", os.path.join(HERE, "isa_scenes.py")], env=env,
                        capture_output=True, text=True, timeout=300)
@@ -29,9 +29,10 @@ def scenes(isa, threads):
 def test_the_x86_64_v2_module_computes_bitwise_what_the_baseline_module_does():
     """Six scenes (2D and 3D, uGIMP and linear, FLIP and APIC, small-strain and co-rotational
     updates, erosion that erodes part of each, a phantom-node crack): the sha256 of each solver's
-    saved state after its steps is the same for the baseline module on one thread and the v2
-    module on two (so this also checks the thread count)."""
-    base, v2 = scenes("x86-64", 1), scenes("x86-64-v2", 2)
+    saved state after its steps is the same for the baseline module on one thread with the
+    baseline's lane loops and the v2 module on two with the widest lanes the processor has (so
+    this also checks the thread count and pkg/Lanes.hpp)."""
+    base, v2 = scenes("x86-64", 1, "baseline"), scenes("x86-64-v2", 2)
     for name in base:
         print(f"[ measured ] {name}: {base[name]}")
         eroded = int(base[name].split()[2])
@@ -62,3 +63,20 @@ def test_the_choice_follows_the_processor_and_the_request():
         _isa.choose("x86-64-v2", "x86-64-v2", lambda level: level == "x86-64")
     with pytest.raises(ImportError, match="EIGENMPM_ISA='sse9' is invalid; allowed: auto, x86-64, x86-64-v2"):
         _isa.choose("sse9", "x86-64-v2", built)
+
+
+def test_the_lane_width_is_the_processors_and_can_be_set():
+    """pkg/Lanes.hpp: the lane loops run in the widest vectors the processor has unless
+    EIGENMPM_LANES caps them; setLaneIsa caps a request at the processor's width and names a wrong
+    width's value and the allowed ones."""
+    flags = _isa.cpuFlags()
+    widest = "avx512" if {"avx512f", "avx512dq"} <= flags else "avx2" if "avx2" in flags else "baseline"
+    assert em.setLaneIsa("auto") == widest
+    if "EIGENMPM_LANES" not in os.environ:
+        assert em.laneIsa() == widest
+    assert em.setLaneIsa("baseline") == "baseline"
+    assert em.laneIsa() == "baseline"
+    assert em.setLaneIsa("avx512") == widest
+    with pytest.raises(ValueError, match="lanes = sse9 is invalid; allowed: 'auto', 'avx512', 'avx2' or 'baseline'"):
+        em.setLaneIsa("sse9")
+    em.setLaneIsa("auto")
