@@ -37,6 +37,15 @@ EMP_ALWAYS_INLINE int floorToInt(double y)
     return y < i ? i - 1 : i;
 }
 
+/// A point's half-width lp in cells with its reciprocal, which uGIMP's weights use: computed once
+/// per pass, not once per point (a division per point that GCC cannot hoist out of a pass's loop,
+/// the half-width being read through a pointer the grid's stores might alias). The same value
+/// either way, so the same weights.
+struct HalfWidth {
+    double lp, inv;
+    HalfWidth(double halfWidth) : lp(halfWidth), inv(1.0 / halfWidth) {}  // NOLINT: implicit from lp
+};
+
 /// Standard MPM hat function: support of 2 nodes per direction, gradient jumps at cell faces.
 struct LinearKernel {
     static constexpr int S = 2;  ///< nodes per direction in the support
@@ -58,9 +67,9 @@ struct LinearKernel {
         return b;
     }
     /// eval in each of the D directions (Stencil::compute).
-    template <int D> static inline void evalAll(const double* xi, double lp, int* base, double (*w)[S], double (*dw)[S])
+    template <int D> static inline void evalAll(const double* xi, const HalfWidth& lp, int* base, double (*w)[S], double (*dw)[S])
     {
-        for (int d = 0; d < D; ++d) base[d] = eval(xi[d], lp, w[d], dw[d]);
+        for (int d = 0; d < D; ++d) base[d] = eval(xi[d], lp.lp, w[d], dw[d]);
     }
 };
 
@@ -109,7 +118,7 @@ struct GimpKernel {
     /// time; and the lanes share the instructions. The divisions by lp are products with its
     /// reciprocals: bitwise eval() when lp is a power of two (ppc = 1, 2, 4, ...), else within
     /// an ulp or two (test_shape_function.cpp).
-    template <int D> static inline void evalAll(const double* xi, double lp, int* base, double (*w)[S], double (*dw)[S])
+    template <int D> static inline void evalAll(const double* xi, const HalfWidth& lp, int* base, double (*w)[S], double (*dw)[S])
     {
         evalPair(xi, D > 1 ? 2 : 1, lp, base, w, dw);
         if constexpr (D == 3) evalPair(xi + 2, 1, lp, base + 2, w + 2, dw + 2);
@@ -118,8 +127,10 @@ struct GimpKernel {
 private:
     /// evalAll for `count` (1 or 2) directions, one per lane of a two-double vector (an SSE2
     /// register: wider vectors of generic code are split badly on the baseline x86-64 target).
-    EMP_ALWAYS_INLINE static void evalPair(const double* xi, int count, double lp, int* base, double (*w)[S], double (*dw)[S])
+    EMP_ALWAYS_INLINE static void evalPair(const double* xi, int count, const HalfWidth& half, int* base, double (*w)[S],
+                                           double (*dw)[S])
     {
+        const double lp = half.lp;
         using V = Lanes<2>::type;
         V x = {}, first = {};  // xi and the index of the first support node, per lane
         for (int d = 0; d < count; ++d) {
@@ -127,7 +138,7 @@ private:
             x[d] = xi[d];
             first[d] = base[d];
         }
-        const double i1 = 1.0 / lp, i2 = 0.5 * i1, i4 = 0.25 * i1;
+        const double i1 = half.inv, i2 = 0.5 * i1, i4 = 0.25 * i1;
         const V zero = {}, one = zero + 1.0;
         // s()'s pieces, node by node. With lp <= 1/2 (ppc >= 1) each node can be on only some
         // of them: the nearest node (k = 1, |r| <= 1/2 <= 1 - lp) on the inner piece or the

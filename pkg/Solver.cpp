@@ -180,6 +180,7 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
     auto& g = grid_;
     const int mapping = mapping_;
     const auto& order = schedule_.order();
+    const HalfWidth half(lp_);  // (its reciprocal once, not per point)
     // One instantiation per transfer, so that FLIP's is the paper's loop alone (the inliner
     // then treats it as before the APIC option existed: bench_block checksums and speed). Both
     // are forced inline into the Scheduler's loop: GCC kept APIC's out of line, which cost 2D
@@ -188,7 +189,7 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
         return [&](int k) EMP_LAMBDA_INLINE {
             const int p = order[k];
             St& st = stencil_[k];
-            st.compute(P.x[p], g, lp_);
+            st.compute(P.x[p], g, half);
             if (mapping && st.overlaps(markedLo_, markedHi_)) mapSupport(st, p, k);
             const double mp = P.mass[p];
             const Vec<D> mv = mp * P.v[p];

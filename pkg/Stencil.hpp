@@ -7,6 +7,7 @@
 
 #include "Grid.hpp"
 #include "PhantomNodes.hpp"
+#include "ShapeFunction.hpp"
 
 #include "Inline.hpp"
 
@@ -20,7 +21,7 @@ template <int D, class K> struct Stencil {
     double w[D][S], dw[D][S];
 
     /// Weights and derivatives of the point at x for the particle half-width lp (cells).
-    void compute(const Vec<D>& x, const Grid<D>& g, double lp)
+    void compute(const Vec<D>& x, const Grid<D>& g, const HalfWidth& lp)
     {
         double xi[D];
         for (int d = 0; d < D; ++d) xi[d] = (x[d] - g.origin[d]) * g.invh;
