@@ -23,7 +23,7 @@ namespace emp {
 
 enum class LaneIsa { baseline = 0, avx2 = 1, avx512 = 2 };
 
-/// The widest the processor runs (x86-64 with GCC or Clang; elsewhere the baseline).
+/// The widest the processor runs (x86-64 built with GCC; otherwise the baseline).
 LaneIsa processorLaneIsa();
 namespace lanes {
 extern std::atomic<int> now;  ///< laneIsa(), as an int (set at start-up, Lanes.cpp)
@@ -36,7 +36,7 @@ const char* name(LaneIsa isa);
 /// "baseline", "avx2", "avx512" or "auto" (the processor's); false for another name.
 bool laneIsaOf(const std::string& s, LaneIsa& isa);
 
-#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)  // (GCC's target attributes)
 #define EMP_LANES_X86 1
 namespace lanes {
 // One instantiation per width: the same loop compiled for the wider units. `f(i)` is inlined
