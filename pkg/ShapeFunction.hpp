@@ -54,6 +54,7 @@ struct LinearKernel {
     static constexpr const char* name = "linear";
     /// D_p vanishes in a direction where the point meets a node line: C_p = B_p D_p^-1 blows up.
     static constexpr bool affineTransfer = false;
+    static constexpr bool laneEvaluation = false;  ///< (GimpKernel::evalLane)
     /// Weights w and derivatives dw of the S nodes starting at the returned base node index.
     static inline int base(double xi) { return floorToInt(xi); }
     static inline int eval(double xi, double /*lp*/, double* w, double* dw)
@@ -122,6 +123,38 @@ struct GimpKernel {
     {
         evalPair(xi, D > 1 ? 2 : 1, lp, base, w, dw);
         if constexpr (D == 3) evalPair(xi + 2, 1, lp, base + 2, w + 2, dw + 2);
+    }
+
+    /// Whether evalLane exists (Stencil::computeRun).
+    static constexpr bool laneEvaluation = true;
+
+    /// evalPair for one direction on plain numbers, for a loop whose lanes are points
+    /// (Stencil::computeRun): the same operations, so bitwise evalPair's weights. Writes w[k *
+    /// Stride] and dw[k * Stride] (k = 0, 1, 2); returns the base node.
+    template <int Stride>
+    EMP_ALWAYS_INLINE static int evalLane(double xi, const HalfWidth& half, double* w, double* dw)
+    {
+        const double lp = half.lp, i1 = half.inv, i2 = 0.5 * i1, i4 = 0.25 * i1;
+        const int b = floorToInt(xi + 0.5) - 1;
+        const double first = b;
+        const auto outerNode = [&](int k, double sg) EMP_LAMBDA_INLINE {
+            const double r = xi - (first + k);
+            const double a = sg * r;
+            const double q = 1.0 + lp - a;
+            const double wo = q * q * i4, dO = -sg * q * i2;
+            w[k * Stride] = a <= 1.0 - lp ? 1.0 - a : a < 1.0 + lp ? wo : 0.0;
+            dw[k * Stride] = a <= 1.0 - lp ? -sg : a < 1.0 + lp ? dO : 0.0;
+        };
+        outerNode(0, 1.0);
+        {
+            const double r = xi - (first + 1);
+            const double a = r < 0.0 ? -r : r, sg = r < 0.0 ? -1.0 : 1.0;
+            const double wi = 1.0 - (r * r + lp * lp) * i2, di = -r * i1;
+            w[Stride] = a < lp ? wi : 1.0 - a;
+            dw[Stride] = a < lp ? di : -sg;
+        }
+        outerNode(2, -1.0);
+        return b;
     }
 
 private:

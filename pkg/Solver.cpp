@@ -185,11 +185,11 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
     // then treats it as before the APIC option existed: bench_block checksums and speed). Both
     // are forced inline into the Scheduler's loop: GCC kept APIC's out of line, which cost 2D
     // APIC 9 % more instructions.
-    const auto body = [&](auto apic) {
+    const auto body = [&](auto apic, auto computed) {
         return [&](int k) EMP_LAMBDA_INLINE {
             const int p = order[k];
             St& st = stencil_[k];
-            st.compute(P.x[p], g, half);
+            if constexpr (!decltype(computed)::value) st.compute(P.x[p], g, half);
             if (mapping && st.overlaps(markedLo_, markedHi_)) mapSupport(st, p, k);
             const double mp = P.mass[p];
             const Vec<D> mv = mp * P.v[p];
@@ -219,10 +219,26 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
     const std::vector<NodeField> fields{{g.mass.data(), 1}, {g.momentum.data()->data(), D}};
     std::function<void(int)> between;
     if (dist_) between = [&](int k) { dist_->afterPhase(k, schedule_.numPhases(), g, fields); };
+    // With vectors wider than the baseline's (pkg/Lanes.hpp), the stencils of a run of points
+    // are computed first, one point per lane (Stencil::computeRun), then the run scatters point
+    // by point: the same stencils, and the same order of the contributions to each node.
+    const auto inRuns = [&](auto apic) {
+        const auto point = body(apic, std::true_type{});
+        return [&, point](int begin, int end) EMP_LAMBDA_INLINE {
+            St::template computeRun<stencilRun>(end - begin, [&](int i) -> const Vec<D>& { return P.x[order[begin + i]]; },
+                                                g, half, &stencil_[begin]);
+            for (int k = begin; k < end; ++k) point(k);
+        };
+    };
+    const auto scatter = [&](auto apic) {
+        if constexpr (K::laneEvaluation)
+            if (laneIsa() != LaneIsa::baseline) return schedule_.scatterRuns(nThreads, stencilRun, inRuns(apic), between);
+        schedule_.scatter(nThreads, body(apic, std::false_type{}), between);
+    };
     if (settings_.transfer == Transfer::apic)
-        schedule_.scatter(nThreads, body(std::true_type{}), between);
+        scatter(std::true_type{});
     else
-        schedule_.scatter(nThreads, body(std::false_type{}), between);
+        scatter(std::false_type{});
     if (dist_) dist_->finishScatter(g, fields);
 }
 

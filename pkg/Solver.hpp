@@ -247,6 +247,8 @@ private:
 
     // Per-point pieces of the fused stress/force pass, which runs in runs of stressRun points.
     static constexpr int stressRun = 16;
+    /// P2G's runs of points whose stencils are computed together (Stencil::computeRun).
+    static constexpr int stencilRun = 32;
     /// Eq 27's velocity gradient at point p.
     Mat<D> velocityGradient(int p, const St& st) const;
     /// The strain increment of point p (small strain).

@@ -10,6 +10,7 @@
 #include "ShapeFunction.hpp"
 
 #include "Inline.hpp"
+#include "Lanes.hpp"
 
 namespace emp {
 
@@ -27,6 +28,40 @@ template <int D, class K> struct Stencil {
         for (int d = 0; d < D; ++d) xi[d] = (x[d] - g.origin[d]) * g.invh;
         K::template evalAll<D>(xi, lp, base, w, dw);
         remap = -1;
+    }
+
+    /// compute() for the n <= R points at positions x(0) ... x(n-1), into out[0 ... n-1], with a
+    /// kernel that evaluates one point per lane (K::laneEvaluation): the weights of all n in one
+    /// loop in the processor's widest vectors (pkg/Lanes.hpp), then copied into the stencils.
+    /// Bitwise compute()'s (the same operations per point).
+    template <int R, class X>
+    static EMP_ALWAYS_INLINE void computeRun(int n, X&& x, const Grid<D>& g, const HalfWidth& lp, Stencil* out)
+    {
+        alignas(64) double xs[D][R], ws[D][S][R], dws[D][S][R];
+        alignas(64) int bs[D][R];
+        for (int i = 0; i < n; ++i) {
+            const Vec<D>& xi = x(i);
+            for (int d = 0; d < D; ++d) xs[d][i] = xi[d];
+        }
+        double origin[D];
+        for (int d = 0; d < D; ++d) origin[d] = g.origin[d];
+        const double invh = g.invh;
+        const HalfWidth half = lp;
+        forLanes(n, [&](int i) EMP_LAMBDA_INLINE {
+            for (int d = 0; d < D; ++d)
+                bs[d][i] = K::template evalLane<R>((xs[d][i] - origin[d]) * invh, half, &ws[d][0][i], &dws[d][0][i]);
+        });
+        for (int i = 0; i < n; ++i) {
+            Stencil& st = out[i];
+            for (int d = 0; d < D; ++d) {
+                st.base[d] = bs[d][i];
+                for (int k = 0; k < S; ++k) {
+                    st.w[d][k] = ws[d][k][i];
+                    st.dw[d][k] = dws[d][k][i];
+                }
+            }
+            st.remap = -1;
+        }
     }
 
     /// Whether the support can touch a marked node: it overlaps the box [lo, hi] of them.

@@ -443,3 +443,59 @@ TYPED_TEST(StencilSumsTest, FactoredSumsAreThePlainSumsToRoundOff)
         EXPECT_EQ(a, c);
     }
 }
+
+// Stencil::computeRun (P2G's stencils of a run of points, one point per lane, GimpKernel::evalLane)
+// gives bitwise compute()'s stencils, in every lane width the processor runs: random positions,
+// points of undeformed uGIMP lattices for ppc 1 to 5 (on the boundaries between the kernel's
+// pieces) and positions on nodes and cell faces, runs of every length up to 32.
+template <int D> void checkComputeRun()
+{
+    using St = emp::Stencil<D, GimpKernel>;
+    constexpr int R = 32;
+    emp::Grid<D> g;
+    std::array<int, D> n;
+    n.fill(16);
+    g.resize(Vec<D>::Constant(-0.3), 0.7, n);
+    std::mt19937 rng(71);
+    std::uniform_real_distribution<double> u(3.0, 12.0);
+    const emp::LaneIsa before = emp::laneIsa();
+    int compared = 0;
+    for (int ppc = 1; ppc <= 5; ++ppc) {
+        const emp::HalfWidth half(0.5 / ppc);
+        std::vector<Vec<D>> x;
+        for (int i = 0; i < 300; ++i) {
+            Vec<D> p;
+            for (int d = 0; d < D; ++d) {
+                const int kind = (i + d) % 3;
+                const double c = 4.0 + (i % 7);
+                const double cells = kind == 0 ? u(rng) : kind == 1 ? c + (0.5 + (i % ppc)) / ppc : c + 0.5 * (i % 2);
+                p[d] = g.origin[d] + cells * g.h;
+            }
+            x.push_back(p);
+        }
+        for (emp::LaneIsa w : {emp::LaneIsa::baseline, emp::LaneIsa::avx2, emp::LaneIsa::avx512}) {
+            if (emp::setLaneIsa(w) != w) continue;
+            for (std::size_t begin = 0; begin < x.size();) {
+                const int len = 1 + static_cast<int>((begin * 13) % R);
+                const int m = std::min<int>(len, static_cast<int>(x.size() - begin));
+                std::vector<St> run(m), one(m);
+                St::template computeRun<R>(m, [&](int i) -> const Vec<D>& { return x[begin + i]; }, g, half, run.data());
+                for (int i = 0; i < m; ++i) {
+                    one[i].compute(x[begin + i], g, half);
+                    ASSERT_EQ(std::memcmp(&run[i].base, &one[i].base, sizeof one[i].base), 0) << emp::name(w);
+                    ASSERT_EQ(run[i].remap, one[i].remap);
+                    ASSERT_EQ(std::memcmp(run[i].w, one[i].w, sizeof one[i].w), 0)
+                        << emp::name(w) << ", ppc " << ppc << ", x = " << x[begin + i].transpose();
+                    ASSERT_EQ(std::memcmp(run[i].dw, one[i].dw, sizeof one[i].dw), 0)
+                        << emp::name(w) << ", ppc " << ppc << ", x = " << x[begin + i].transpose();
+                    ++compared;
+                }
+                begin += m;
+            }
+        }
+    }
+    emp::setLaneIsa(before);
+    EXPECT_GE(compared, 5 * 300);
+}
+TEST(ShapeFunction, ComputeRunIsBitwiseCompute2D) { checkComputeRun<2>(); }
+TEST(ShapeFunction, ComputeRunIsBitwiseCompute3D) { checkComputeRun<3>(); }
