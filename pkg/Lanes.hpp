@@ -7,8 +7,9 @@
 // product is contracted into a fused multiply-add (the build passes -ffp-contract=off; AVX-512
 // has FMA instructions). What changes is how many points go through at once: the solver's
 // pointwise law and the co-rotational update of a run of points (Solver::lawOfRun2,
-// corotationalOfRun2) wait on square roots and divisions, which the wide units take 4 or 8 at a
-// time instead of 2 (doc/performance.md, "Session 19").
+// corotationalOfRun2, corotationalOfRun3) wait on square roots and divisions, which the wide
+// units take 4 or 8 at a time instead of 2, and P2G's uGIMP weights (Stencil::computeRun) go
+// one point per lane (doc/performance.md, "Session 19").
 //
 // `laneIsa()` is chosen once per process from the processor's flags; the environment variable
 // EIGENMPM_LANES=baseline|avx2|avx512 (or auto) caps it, and `setLaneIsa` sets it (the tests run
