@@ -40,19 +40,8 @@ bool laneIsaOf(const std::string& s, LaneIsa& isa);
 #if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)  // (GCC's target attributes)
 #define EMP_LANES_X86 1
 namespace lanes {
-// One instantiation per width: the same loop compiled for the wider units. `f(i)` is inlined
-// (the caller's lambda is EMP_LAMBDA_INLINE; a function of the baseline inlines into a wider
-// one).
-template <class F> __attribute__((target("avx512f,avx512dq,prefer-vector-width=512"))) EMP_NOINLINE void avx512(int n, F& f)
-{
-#pragma omp simd
-    for (int i = 0; i < n; ++i) f(i);
-}
-template <class F> __attribute__((target("avx2"))) EMP_NOINLINE void avx2(int n, F& f)
-{
-#pragma omp simd
-    for (int i = 0; i < n; ++i) f(i);
-}
+// f() compiled once more per width: the loops written in f (inlined: the caller's lambda is
+// EMP_LAMBDA_INLINE, and a function of the baseline inlines into a wider one) use that width.
 template <class F> __attribute__((target("avx512f,avx512dq,prefer-vector-width=512"))) EMP_NOINLINE void avx512Call(F& f)
 {
     f();
@@ -78,13 +67,10 @@ template <class F> EMP_ALWAYS_INLINE void withLaneIsa(F&& f)
 /// Calls f(i) for i = 0 ... n-1 as one vectorised loop in the width laneIsa() names.
 template <class F> EMP_ALWAYS_INLINE void forLanes(int n, F&& f)
 {
-#ifdef EMP_LANES_X86
-    const LaneIsa isa = laneIsa();
-    if (isa == LaneIsa::avx512) return lanes::avx512(n, f);
-    if (isa == LaneIsa::avx2) return lanes::avx2(n, f);
-#endif
+    withLaneIsa([&]() EMP_LAMBDA_INLINE {
 #pragma omp simd
-    for (int i = 0; i < n; ++i) f(i);
+        for (int i = 0; i < n; ++i) f(i);
+    });
 }
 
 }  // namespace emp

@@ -46,10 +46,9 @@ template <int D, class K> struct Stencil {
         double origin[D];
         for (int d = 0; d < D; ++d) origin[d] = g.origin[d];
         const double invh = g.invh;
-        const HalfWidth half = lp;
         forLanes(n, [&](int i) EMP_LAMBDA_INLINE {
             for (int d = 0; d < D; ++d)
-                bs[d][i] = K::template evalLane<R>((xs[d][i] - origin[d]) * invh, half, &ws[d][0][i], &dws[d][0][i]);
+                bs[d][i] = K::template evalLane<R>((xs[d][i] - origin[d]) * invh, lp, &ws[d][0][i], &dws[d][0][i]);
         });
         for (int i = 0; i < n; ++i) {
             Stencil& st = out[i];
