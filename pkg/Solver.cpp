@@ -194,6 +194,15 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
             const double mp = P.mass[p];
             const Vec<D> mv = mp * P.v[p];
             if constexpr (!decltype(apic)::value) {
+                if (st.regular()) {  // (the same sums by rows: Stencil::forEachRow)
+                    st.forEachRow(g, [&](int I0, const double* N) EMP_LAMBDA_INLINE {
+                        double* m = &g.mass[I0];
+                        double* q = g.momentum[I0].data();
+                        for (int i = 0; i < S; ++i) m[i] += N[i] * mp;
+                        for (int e = 0; e < S * D; ++e) q[e] += N[e / D] * mv[e % D];
+                    });
+                    return;
+                }
                 st.forEach(g, [&](int I, double N, const Vec<D>&) {
                     g.mass[I] += N * mp;
                     g.momentum[I] += N * mv;
@@ -209,6 +218,15 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
                 Mat<D>& Cu = P.affineVelocity[p];
                 for (int d = 0; d < D; ++d)
                     Cu.col(d) = du[d] > 0 ? Vec<D>(Cu.col(d) * (1.0 / (g.h * du[d]))) : Vec<D>::Zero();
+                if (st.regular()) {
+                    st.forEachRowAffine(g, u, mv, Mat<D>(mp * Cu), [&](int I0, const double* N, const double* t) EMP_LAMBDA_INLINE {
+                        double* m = &g.mass[I0];
+                        double* q = g.momentum[I0].data();
+                        for (int i = 0; i < S; ++i) m[i] += N[i] * mp;
+                        for (int e = 0; e < S * D; ++e) q[e] += N[e / D] * t[e];
+                    });
+                    return;
+                }
                 st.forEachAffine(g, u, mv, Mat<D>(mp * Cu), [&](int I, double N, const Vec<D>& m) {
                     g.mass[I] += N * mp;
                     g.momentum[I] += N * m;
@@ -227,7 +245,9 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
         return [&, point](int begin, int end) EMP_LAMBDA_INLINE {
             St::template computeRun<stencilRun>(end - begin, [&](int i) -> const Vec<D>& { return P.x[order[begin + i]]; },
                                                 g, half, &stencil_[begin]);
-            for (int k = begin; k < end; ++k) point(k);
+            withLaneIsa([&]() EMP_LAMBDA_INLINE {  // (the rows' loops in the lanes' width)
+                for (int k = begin; k < end; ++k) point(k);
+            });
         };
     };
     const auto scatter = [&](auto apic) {
@@ -592,6 +612,19 @@ EMP_ALWAYS_INLINE void Solver<D, K>::scatterInternalForce(int p, const St& st, c
     const double volume = corotational ? points_.volume[p] * points_.deformationGradient[p].determinant()
                                        : points_.volume[p];
     const Mat<D> vs = volume * points_.stress[p];
+    if (st.regular()) {  // (the same sums by rows: Stencil::forEachRowProjected)
+        const Vec<D> fb = withGravity ? Vec<D>(points_.mass[p] * gravity) : Vec<D>::Zero();
+        st.forEachRowProjected(g, vs, [&](int I0, const double* N, const double* t) EMP_LAMBDA_INLINE {
+            double* f = g.force[I0].data();
+            for (int e = 0; e < S * D; ++e) {
+                if constexpr (withGravity)
+                    f[e] += N[e / D] * fb[e % D] - t[e];
+                else
+                    f[e] -= t[e];
+            }
+        });
+        return;
+    }
     if constexpr (withGravity) {
         const Vec<D> fb = points_.mass[p] * gravity;
         st.forEachProjected(g, vs, [&](int I, double N, const Vec<D>& vsGrad) { g.force[I] += N * fb - vsGrad; });
@@ -617,9 +650,11 @@ template <int D, class K> void Solver<D, K>::stressAndInternalForce(double dt, i
                 for (int k = begin; k < end; ++k) updateStrain(order[k], stencil_[k], dt);
                 lawOfRun(&order[begin], end - begin);
             }
-            for (int k = begin; k < end; ++k)
-                scatterInternalForce<decltype(withGravity)::value, decltype(corotational)::value>(
-                    order[k], stencil_[k], gravity);
+            withLaneIsa([&]() EMP_LAMBDA_INLINE {  // (the rows' loops in the lanes' width)
+                for (int k = begin; k < end; ++k)
+                    scatterInternalForce<decltype(withGravity)::value, decltype(corotational)::value>(
+                        order[k], stencil_[k], gravity);
+            });
         }, between);
     };
     stepLaw_ = materials_.empty() ? -1 : materials_[0].law;

@@ -327,6 +327,106 @@ template <int D, class K> struct Stencil {
         }
     }
 
+    // ---- By rows: the same values, for a support on the regular lattice ---------------------
+    // A row is the S nodes base[0] ... base[0] + S - 1 along x of one (j) or (j, k): without
+    // phantom twins they lie next to each other in the nodal arrays, S * D numbers of a vector
+    // field in a row. The row forms below give a caller the row's weights N[i] and values
+    // t[i * D + d] (node-major), computed with the operations of their node-by-node form and in
+    // its order of rows, so that a caller's update of each node is bitwise that of the node form.
+    // Written as flat loops over the row's numbers, which the compiler vectorises across nodes
+    // (the node form works on one node's D components; in 3D, Eigen's 3-vectors are scalar).
+
+    /// Whether the support lies on the regular lattice (no phantom twin): the row forms apply.
+    bool regular() const { return remap < 0; }
+
+    /// The first node of row j (2D) or (j, k) (3D) of a regular support.
+    EMP_ALWAYS_INLINE int rowStart(const Grid<D>& g, int j, int k = 0) const
+    {
+        int first = base[0] + (base[1] + j) * g.stride[1];
+        if constexpr (D == 3) first += (base[2] + k) * g.stride[2];
+        return first;
+    }
+
+    /// forEach by rows (its weights N): row(first node, N).
+    template <class Row> EMP_ALWAYS_INLINE void forEachRow(const Grid<D>& g, Row&& row) const
+    {
+        double N[S];
+        if constexpr (D == 2) {
+            for (int j = 0; j < S; ++j) {
+                for (int i = 0; i < S; ++i) N[i] = w[0][i] * w[1][j];
+                row(rowStart(g, j), N);
+            }
+        } else {
+            for (int k = 0; k < S; ++k)
+                for (int j = 0; j < S; ++j) {
+                    const double wjk = w[1][j] * w[2][k];
+                    for (int i = 0; i < S; ++i) N[i] = w[0][i] * wjk;
+                    row(rowStart(g, j, k), N);
+                }
+        }
+    }
+
+    /// forEachProjected by rows: row(first node, N, t) with t the row's M grad N.
+    template <class Row> EMP_ALWAYS_INLINE void forEachRowProjected(const Grid<D>& g, const Mat<D>& M, Row&& row) const
+    {
+        constexpr int E = S * D;
+        double a[E], b[E], c[D == 3 ? E : 1], N[S], t[E];
+        for (int i = 0; i < S; ++i) {
+            const double da = dw[0][i] * g.invh, wb = w[0][i] * g.invh;
+            for (int d = 0; d < D; ++d) {
+                a[i * D + d] = da * M(d, 0);
+                b[i * D + d] = wb * M(d, 1);
+                if constexpr (D == 3) c[i * D + d] = wb * M(d, 2);
+            }
+        }
+        if constexpr (D == 2) {
+            for (int j = 0; j < S; ++j) {
+                const double p = w[1][j], q = dw[1][j];
+                for (int i = 0; i < S; ++i) N[i] = w[0][i] * p;
+                for (int e = 0; e < E; ++e) t[e] = p * a[e] + q * b[e];
+                row(rowStart(g, j), N, t);
+            }
+        } else {
+            for (int k = 0; k < S; ++k)
+                for (int j = 0; j < S; ++j) {
+                    const double p = w[1][j] * w[2][k], q = dw[1][j] * w[2][k], r = w[1][j] * dw[2][k];
+                    for (int i = 0; i < S; ++i) N[i] = w[0][i] * p;
+                    for (int e = 0; e < E; ++e) t[e] = p * a[e] + q * b[e] + r * c[e];
+                    row(rowStart(g, j, k), N, t);
+                }
+        }
+    }
+
+    /// forEachAffine by rows: row(first node, N, t) with t the row's a + M (x_I - x_p).
+    template <class Row>
+    EMP_ALWAYS_INLINE void forEachRowAffine(const Grid<D>& g, const double (*o)[S], const Vec<D>& a, const Mat<D>& M,
+                                            Row&& row) const
+    {
+        constexpr int E = S * D;
+        double x[E], N[S], t[E];
+        for (int i = 0; i < S; ++i)
+            for (int d = 0; d < D; ++d) x[i * D + d] = o[0][i] * M(d, 0);
+        if constexpr (D == 2) {
+            for (int j = 0; j < S; ++j) {
+                const Vec<2> r = a + o[1][j] * M.col(1);
+                for (int i = 0; i < S; ++i) N[i] = w[0][i] * w[1][j];
+                for (int e = 0; e < E; ++e) t[e] = r[e % D] + x[e];
+                row(rowStart(g, j), N, t);
+            }
+        } else {
+            for (int k = 0; k < S; ++k) {
+                const Vec<3> q = a + o[2][k] * M.col(2);
+                for (int j = 0; j < S; ++j) {
+                    const double wjk = w[1][j] * w[2][k];
+                    const Vec<3> r = q + o[1][j] * M.col(1);
+                    for (int i = 0; i < S; ++i) N[i] = w[0][i] * wjk;
+                    for (int e = 0; e < E; ++e) t[e] = r[e % D] + x[e];
+                    row(rowStart(g, j, k), N, t);
+                }
+            }
+        }
+    }
+
     /// Calls f(node index, N, grad N) for every support node, in a fixed order.
     template <class F> EMP_ALWAYS_INLINE void forEach(const Grid<D>& g, F&& f) const
     {

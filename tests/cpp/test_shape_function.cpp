@@ -499,3 +499,90 @@ template <int D> void checkComputeRun()
 }
 TEST(ShapeFunction, ComputeRunIsBitwiseCompute2D) { checkComputeRun<2>(); }
 TEST(ShapeFunction, ComputeRunIsBitwiseCompute3D) { checkComputeRun<3>(); }
+
+// The row forms of a regular support (Stencil::forEachRow, forEachRowProjected, forEachRowAffine:
+// the solver's P2G and stress passes on the regular lattice) update every node bitwise as the node
+// forms do (forEach, forEachProjected, forEachAffine, the plain versions kept for the phantom
+// twins), with the solver's updates, in every lane width the processor runs (the passes call them
+// inside withLaneIsa, so that the rows' loops use that width).
+template <int D, class K> void checkRowForms()
+{
+    using St = emp::Stencil<D, K>;
+    constexpr int S = St::S;
+    emp::Grid<D> g;
+    std::array<int, D> n;
+    n.fill(12);
+    g.resize(Vec<D>::Constant(-0.3), 0.7, n);
+    const int nodes = g.numNodes();
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<double> u(3.0, 8.0), r(-1.0, 1.0);
+    std::vector<double> mass0(nodes);
+    std::vector<Vec<D>> field0(nodes);
+    for (int I = 0; I < nodes; ++I) {
+        mass0[I] = r(rng);
+        field0[I] = Vec<D>::Random();
+    }
+    const emp::LaneIsa before = emp::laneIsa();
+    int compared = 0;
+    for (emp::LaneIsa w : {emp::LaneIsa::baseline, emp::LaneIsa::avx2, emp::LaneIsa::avx512}) {
+        if (emp::setLaneIsa(w) != w) continue;
+        for (int trial = 0; trial < 200; ++trial) {
+            Vec<D> x, fb, a0;
+            for (int d = 0; d < D; ++d) x[d] = g.origin[d] + u(rng) * g.h, fb[d] = r(rng), a0[d] = r(rng);
+            const Mat<D> M = Mat<D>::Random() * std::pow(10.0, 6 * r(rng));
+            const double mp = 1 + r(rng);
+            St st;
+            st.compute(x, g, emp::HalfWidth(0.25));
+            ASSERT_TRUE(st.regular());
+            double o[D][S];
+            st.cellOffsets(x, g, o);
+            // node forms
+            std::vector<double> mass = mass0;
+            std::vector<Vec<D>> mom = field0, aff = field0, force = field0, grav = field0;
+            st.forEach(g, [&](int I, double N, const Vec<D>&) {
+                mass[I] += N * mp;
+                mom[I] += N * a0;
+            });
+            st.forEachProjected(g, M, [&](int I, double N, const Vec<D>& t) {
+                force[I] -= t;
+                grav[I] += N * fb - t;
+            });
+            st.forEachAffine(g, o, a0, M, [&](int I, double N, const Vec<D>& m) { aff[I] += N * m; });
+            // row forms, in the lanes' width
+            std::vector<double> mass2 = mass0;
+            std::vector<Vec<D>> mom2 = field0, aff2 = field0, force2 = field0, grav2 = field0;
+            emp::withLaneIsa([&]() EMP_LAMBDA_INLINE {
+                st.forEachRow(g, [&](int I0, const double* N) EMP_LAMBDA_INLINE {
+                    for (int i = 0; i < S; ++i) mass2[I0 + i] += N[i] * mp;
+                    double* q = mom2[I0].data();
+                    for (int e = 0; e < S * D; ++e) q[e] += N[e / D] * a0[e % D];
+                });
+                st.forEachRowProjected(g, M, [&](int I0, const double* N, const double* t) EMP_LAMBDA_INLINE {
+                    double *f = force2[I0].data(), *h = grav2[I0].data();
+                    for (int e = 0; e < S * D; ++e) {
+                        f[e] -= t[e];
+                        h[e] += N[e / D] * fb[e % D] - t[e];
+                    }
+                });
+                st.forEachRowAffine(g, o, a0, M, [&](int I0, const double* N, const double* t) EMP_LAMBDA_INLINE {
+                    double* q = aff2[I0].data();
+                    for (int e = 0; e < S * D; ++e) q[e] += N[e / D] * t[e];
+                });
+            });
+            ASSERT_EQ(std::memcmp(mass.data(), mass2.data(), nodes * sizeof(double)), 0) << emp::name(w);
+            const std::size_t bytes = nodes * sizeof(Vec<D>);
+            ASSERT_EQ(std::memcmp(mom.data(), mom2.data(), bytes), 0) << emp::name(w) << ", x = " << x.transpose();
+            ASSERT_EQ(std::memcmp(force.data(), force2.data(), bytes), 0) << emp::name(w) << ", x = " << x.transpose();
+            ASSERT_EQ(std::memcmp(grav.data(), grav2.data(), bytes), 0) << emp::name(w) << ", x = " << x.transpose();
+            ASSERT_EQ(std::memcmp(aff.data(), aff2.data(), bytes), 0) << emp::name(w) << ", x = " << x.transpose();
+            ASSERT_NE(std::memcmp(force.data(), field0.data(), bytes), 0);  // (the forms wrote something)
+            ++compared;
+        }
+    }
+    emp::setLaneIsa(before);
+    EXPECT_GE(compared, 200);
+}
+TEST(Stencil, RowFormsAreBitwiseNodeForms2D) { checkRowForms<2, GimpKernel>(); }
+TEST(Stencil, RowFormsAreBitwiseNodeForms3D) { checkRowForms<3, GimpKernel>(); }
+TEST(Stencil, RowFormsAreBitwiseNodeForms2DLinear) { checkRowForms<2, emp::LinearKernel>(); }
+TEST(Stencil, RowFormsAreBitwiseNodeForms3DLinear) { checkRowForms<3, emp::LinearKernel>(); }
