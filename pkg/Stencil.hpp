@@ -380,6 +380,7 @@ template <int D, class K> struct Stencil {
             }
         }
         if constexpr (D == 2) {
+#pragma GCC unroll 4
             for (int j = 0; j < S; ++j) {
                 const double p = w[1][j], q = dw[1][j];
                 for (int i = 0; i < S; ++i) N[i] = w[0][i] * p;
@@ -387,7 +388,9 @@ template <int D, class K> struct Stencil {
                 row(rowStart(g, j), N, t);
             }
         } else {
+#pragma GCC unroll 4
             for (int k = 0; k < S; ++k)
+#pragma GCC unroll 4
                 for (int j = 0; j < S; ++j) {
                     const double p = w[1][j] * w[2][k], q = dw[1][j] * w[2][k], r = w[1][j] * dw[2][k];
                     for (int i = 0; i < S; ++i) N[i] = w[0][i] * p;
@@ -407,6 +410,7 @@ template <int D, class K> struct Stencil {
         for (int i = 0; i < S; ++i)
             for (int d = 0; d < D; ++d) x[i * D + d] = o[0][i] * M(d, 0);
         if constexpr (D == 2) {
+#pragma GCC unroll 4
             for (int j = 0; j < S; ++j) {
                 const Vec<2> r = a + o[1][j] * M.col(1);
                 for (int i = 0; i < S; ++i) N[i] = w[0][i] * w[1][j];
@@ -414,8 +418,10 @@ template <int D, class K> struct Stencil {
                 row(rowStart(g, j), N, t);
             }
         } else {
+#pragma GCC unroll 4
             for (int k = 0; k < S; ++k) {
                 const Vec<3> q = a + o[2][k] * M.col(2);
+#pragma GCC unroll 4
                 for (int j = 0; j < S; ++j) {
                     const double wjk = w[1][j] * w[2][k];
                     const Vec<3> r = q + o[1][j] * M.col(1);
