@@ -854,10 +854,19 @@ template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThre
     const auto flip = [&](int k, Check& acc) {
         const int p = order[k];
         Vec<D> a = Vec<D>::Zero(), vg = Vec<D>::Zero();
-        stencil_[k].forEach(g, [&](int I, double N, const Vec<D>&) {
-            a += N * g.force[I];
-            vg += N * g.velocity[I];
-        });
+        const St& st = stencil_[k];
+        if (st.regular())  // (the same sums, the nodes' addresses from each row's first)
+            st.forEachRow(g, [&](int I0, const double* N) EMP_LAMBDA_INLINE {
+                for (int i = 0; i < S; ++i) {
+                    a += N[i] * g.force[I0 + i];
+                    vg += N[i] * g.velocity[I0 + i];
+                }
+            });
+        else
+            st.forEach(g, [&](int I, double N, const Vec<D>&) {
+                a += N * g.force[I];
+                vg += N * g.velocity[I];
+            });
         const Vec<D> v = P.v[p] + dt * a;
         acc.kinetic += 0.5 * P.mass[p] * P.v[p].dot(v);
         finish(p, v, vg, acc);

@@ -193,42 +193,42 @@ template <int D, class K> struct Stencil {
     template <class V>
     EMP_ALWAYS_INLINE void affineSums(const Grid<D>& g, const double (*o)[S], V&& v, Vec<D>& sum, Mat<D>& B) const
     {
-        int node[NS];
-        nodes(g, node);
-        Vec<D> column[S];  // sums over the nodes base[0] + i of every row
-        for (int i = 0; i < S; ++i) column[i].setZero();
-        sum.setZero();
-        B.setZero();
-        if constexpr (D == 2) {
-            for (int j = 0; j < S; ++j) {
-                Vec<2> row = Vec<2>::Zero();
-                for (int i = 0; i < S; ++i) {
-                    const Vec<2> nv = (w[0][i] * w[1][j]) * v(node[i + S * j]);
-                    row += nv;
-                    column[i] += nv;
-                }
-                sum += row;
-                B.col(1) += o[1][j] * row;
-            }
-        } else {
-            for (int k = 0; k < S; ++k) {
-                Vec<3> plane = Vec<3>::Zero();
+        withNodeOf(g, [&](auto nodeOf) EMP_LAMBDA_INLINE {
+            Vec<D> column[S];  // sums over the nodes base[0] + i of every row
+            for (int i = 0; i < S; ++i) column[i].setZero();
+            sum.setZero();
+            B.setZero();
+            if constexpr (D == 2) {
                 for (int j = 0; j < S; ++j) {
-                    const double wjk = w[1][j] * w[2][k];
-                    Vec<3> row = Vec<3>::Zero();
+                    Vec<2> row = Vec<2>::Zero();
                     for (int i = 0; i < S; ++i) {
-                        const Vec<3> nv = (w[0][i] * wjk) * v(node[i + S * (j + S * k)]);
+                        const Vec<2> nv = (w[0][i] * w[1][j]) * v(nodeOf(i, j, 0));
                         row += nv;
                         column[i] += nv;
                     }
-                    plane += row;
+                    sum += row;
                     B.col(1) += o[1][j] * row;
                 }
-                sum += plane;
-                B.col(2) += o[2][k] * plane;
+            } else {
+                for (int k = 0; k < S; ++k) {
+                    Vec<3> plane = Vec<3>::Zero();
+                    for (int j = 0; j < S; ++j) {
+                        const double wjk = w[1][j] * w[2][k];
+                        Vec<3> row = Vec<3>::Zero();
+                        for (int i = 0; i < S; ++i) {
+                            const Vec<3> nv = (w[0][i] * wjk) * v(nodeOf(i, j, k));
+                            row += nv;
+                            column[i] += nv;
+                        }
+                        plane += row;
+                        B.col(1) += o[1][j] * row;
+                    }
+                    sum += plane;
+                    B.col(2) += o[2][k] * plane;
+                }
             }
-        }
-        for (int i = 0; i < S; ++i) B.col(0) += o[0][i] * column[i];
+            for (int i = 0; i < S; ++i) B.col(0) += o[0][i] * column[i];
+        });
     }
 
     /// The node indices of the support, in forEach's order (x fastest): from the base node, or
@@ -248,53 +248,70 @@ template <int D, class K> struct Stencil {
         for (int k = 0; k < NS; ++k) node[k] = first + k % S + (k / S) % S * s1 + k / (S * S) * s2;
     }
 
+    /// f(nodeOf) with nodeOf(i, j, k) the index of support node (i, j, k) (k = 0 in 2D): on the
+    /// regular lattice computed from the first node (a row's nodes are then one address and
+    /// constant offsets, no table to write and read back), near a pre-existing crack read from
+    /// the remap table (nodes). The same indices either way, so the same sums.
+    template <class F> EMP_ALWAYS_INLINE decltype(auto) withNodeOf(const Grid<D>& g, F&& f) const
+    {
+        if (remap < 0) {
+            const int s1 = g.stride[1], s2 = D == 3 ? g.stride[D - 1] : 0;
+            int first = base[0] + base[1] * s1;
+            if constexpr (D == 3) first += base[D - 1] * s2;
+            return f([=](int i, int j, int k) EMP_LAMBDA_INLINE { return first + i + j * s1 + k * s2; });
+        }
+        int node[NS];
+        nodes(g, node);
+        return f([&](int i, int j, int k) EMP_LAMBDA_INLINE { return node[i + S * (j + S * k)]; });
+    }
+
     /// sum_I v(I) grad N_I^T for the nodal values v(I) (Eq 27's velocity gradient). grad N is a
     /// tensor product of the 1D weights and derivatives, so the sums run direction by direction:
     /// the inner sums over x serve two (2D) or three (3D) columns.
     template <class V> EMP_ALWAYS_INLINE Mat<D> gradientOf(const Grid<D>& g, V&& v) const
     {
-        int node[NS];
-        nodes(g, node);
-        Mat<D> L;
-        Vec<D> a, b;  // the sums over x of one row of the support (rowSums)
-        if constexpr (D == 2) {
-            Vec<2> c0 = Vec<2>::Zero(), c1 = Vec<2>::Zero();
-            for (int j = 0; j < S; ++j) {
-                rowSums(node + S * j, v, a, b);
-                c0 += w[1][j] * a;
-                c1 += dw[1][j] * b;
-            }
-            L.col(0) = g.invh * c0;
-            L.col(1) = g.invh * c1;
-        } else {
-            Vec<3> c0 = Vec<3>::Zero(), c1 = Vec<3>::Zero(), c2 = Vec<3>::Zero();
-            for (int k = 0; k < S; ++k) {
-                Vec<3> A = Vec<3>::Zero(), B = Vec<3>::Zero(), C = Vec<3>::Zero();
+        return withNodeOf(g, [&](auto nodeOf) EMP_LAMBDA_INLINE {
+            Mat<D> L;
+            Vec<D> a, b;  // the sums over x of one row of the support (rowSums)
+            if constexpr (D == 2) {
+                Vec<2> c0 = Vec<2>::Zero(), c1 = Vec<2>::Zero();
                 for (int j = 0; j < S; ++j) {
-                    rowSums(node + S * (j + S * k), v, a, b);
-                    A += w[1][j] * a;
-                    B += dw[1][j] * b;
-                    C += w[1][j] * b;
+                    rowSums([&](int i) EMP_LAMBDA_INLINE { return nodeOf(i, j, 0); }, v, a, b);
+                    c0 += w[1][j] * a;
+                    c1 += dw[1][j] * b;
                 }
-                c0 += w[2][k] * A;
-                c1 += w[2][k] * B;
-                c2 += dw[2][k] * C;
+                L.col(0) = g.invh * c0;
+                L.col(1) = g.invh * c1;
+            } else {
+                Vec<3> c0 = Vec<3>::Zero(), c1 = Vec<3>::Zero(), c2 = Vec<3>::Zero();
+                for (int k = 0; k < S; ++k) {
+                    Vec<3> A = Vec<3>::Zero(), B = Vec<3>::Zero(), C = Vec<3>::Zero();
+                    for (int j = 0; j < S; ++j) {
+                        rowSums([&](int i) EMP_LAMBDA_INLINE { return nodeOf(i, j, k); }, v, a, b);
+                        A += w[1][j] * a;
+                        B += dw[1][j] * b;
+                        C += w[1][j] * b;
+                    }
+                    c0 += w[2][k] * A;
+                    c1 += w[2][k] * B;
+                    c2 += dw[2][k] * C;
+                }
+                L.col(0) = g.invh * c0;
+                L.col(1) = g.invh * c1;
+                L.col(2) = g.invh * c2;
             }
-            L.col(0) = g.invh * c0;
-            L.col(1) = g.invh * c1;
-            L.col(2) = g.invh * c2;
-        }
-        return L;
+            return L;
+        });
     }
 
-    /// a = sum_i dw_x,i v(row[i]) and b = sum_i w_x,i v(row[i]) over the S nodes of one row
-    /// (gradientOf).
-    template <class V> EMP_ALWAYS_INLINE void rowSums(const int* row, V&& v, Vec<D>& a, Vec<D>& b) const
+    /// a = sum_i dw_x,i v(row(i)) and b = sum_i w_x,i v(row(i)) over the S nodes row(0) ...
+    /// row(S - 1) of one row (gradientOf).
+    template <class R, class V> EMP_ALWAYS_INLINE void rowSums(R&& row, V&& v, Vec<D>& a, Vec<D>& b) const
     {
         a.setZero();
         b.setZero();
         for (int i = 0; i < S; ++i) {
-            const Vec<D> vi = v(row[i]);
+            const Vec<D> vi = v(row(i));
             a += dw[0][i] * vi;
             b += w[0][i] * vi;
         }

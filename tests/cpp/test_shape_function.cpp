@@ -576,6 +576,26 @@ template <int D, class K> void checkRowForms()
             ASSERT_EQ(std::memcmp(grav.data(), grav2.data(), bytes), 0) << emp::name(w) << ", x = " << x.transpose();
             ASSERT_EQ(std::memcmp(aff.data(), aff2.data(), bytes), 0) << emp::name(w) << ", x = " << x.transpose();
             ASSERT_NE(std::memcmp(force.data(), field0.data(), bytes), 0);  // (the forms wrote something)
+            // The sums that read nodes (gradientOf, affineSums, G2P's sums by forEachRow) give the
+            // same bits with the indices from the base node as from a table of the same nodes.
+            St tabled = st;
+            g.remap.resize(St::NS);
+            for (int q = 0; q < St::NS; ++q) g.remap[q] = st.regularNode(g, q);
+            tabled.remap = 0;
+            const auto v = [&](int I) { return field0[I]; };
+            const Mat<D> L1 = st.gradientOf(g, v), L2 = tabled.gradientOf(g, v);
+            ASSERT_EQ(std::memcmp(L1.data(), L2.data(), sizeof L1), 0) << emp::name(w);
+            Vec<D> s1, s2, a1 = Vec<D>::Zero(), a2 = Vec<D>::Zero();
+            Mat<D> B1, B2;
+            st.affineSums(g, o, v, s1, B1);
+            tabled.affineSums(g, o, v, s2, B2);
+            ASSERT_EQ(std::memcmp(s1.data(), s2.data(), sizeof s1), 0) << emp::name(w);
+            ASSERT_EQ(std::memcmp(B1.data(), B2.data(), sizeof B1), 0) << emp::name(w);
+            st.forEachRow(g, [&](int I0, const double* N) {
+                for (int i = 0; i < S; ++i) a1 += N[i] * field0[I0 + i];
+            });
+            tabled.forEach(g, [&](int I, double N, const Vec<D>&) { a2 += N * field0[I]; });
+            ASSERT_EQ(std::memcmp(a1.data(), a2.data(), sizeof a1), 0) << emp::name(w);
             ++compared;
         }
     }
