@@ -9,7 +9,9 @@
 // pointwise law and the co-rotational update of a run of points (Solver::lawOfRun2,
 // corotationalOfRun2, corotationalOfRun3) wait on square roots and divisions, which the wide
 // units take 4 or 8 at a time instead of 2, and P2G's uGIMP weights (Stencil::computeRun) go
-// one point per lane (doc/performance.md, "Session 19").
+// one point per lane (doc/performance.md, "Session 19"). P2G's and the stress pass's scatters
+// run inside withLaneIsa too: each row of a support is one loop over its S x D numbers, one
+// number per lane (Stencil::forEachRow..., doc/performance.md, "Session 20").
 //
 // `laneIsa()` is chosen once per process from the processor's flags; the environment variable
 // EIGENMPM_LANES=baseline|avx2|avx512 (or auto) caps it, and `setLaneIsa` sets it (the tests run
