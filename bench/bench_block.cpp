@@ -13,11 +13,13 @@
 //
 //   bench_block [--sizes 1e5,1e6] [--threads 1,2] [--min-time 3] [--warmup 3]
 //               [--cases gimp2,linear2,gimp3] [--size3d 1e5] [--steps N] [--amp 0.01] [--quick]
-//               [--transfer FLIP|APIC] [--stress-update smallStrain|corotational]
+//               [--transfer FLIP|APIC] [--stress-update smallStrain|corotational] [--gravity G]
 //
 // --amp A sets the initial velocity amplitude to A times the wave speed (strains of order A).
 // With the default 1e-2 the points leave their lattice sites within a few steps; with 1e-5
 // they stay within 1e-3 h of them, as in small-strain elastodynamics (the vibrating bar).
+// --gravity G (m/s2, along -y; default 0) adds a body force: the stress pass then also scatters
+// N m g, as in most scenes with contact.
 // --steps N times exactly N steps per run instead of --min-time (the checksums then compare
 // builds: an optimisation that keeps the arithmetic must keep them).
 // --quick is --sizes 2e4 --size3d 2e4 --min-time 0.3 --warmup 1.
@@ -65,6 +67,7 @@ struct Options {
     double amp = 0.01;  ///< velocity amplitude / wave speed (about the strain amplitude)
     emp::Transfer transfer = emp::Transfer::flip;
     emp::StressUpdate stressUpdate = emp::StressUpdate::smallStrain;
+    double gravity = 0;  ///< m/s2 along -y
     bool mpi = false;
     int columnCells = 0, rankColumns = 1;  ///< the scheduler's columns; --mpi: columns of ranks
 };
@@ -177,6 +180,7 @@ Options parse(int argc, char** argv)
         else if (a == "--mpi") o.mpi = true;
         else if (a == "--column-cells") o.columnCells = std::stoi(next());
         else if (a == "--rank-columns") o.rankColumns = std::stoi(next());
+        else if (a == "--gravity") o.gravity = std::stod(next());
         else if (a == "--transfer") {
             o.transfer = emp::transferOf(next());
             if (o.transfer == emp::Transfer::unset) usage("--transfer takes FLIP or APIC");
@@ -228,6 +232,7 @@ template <int D, class K> emp::Solver<D, K> makeBlock(const std::array<int, D>& 
     s.massCutoff = 1e-14;
     s.padding = 3;
     s.gravity.setZero();
+    if (o.gravity != 0) s.gravity[1] = -o.gravity;
     s.h = h;
     s.ppc = ppc;
     s.transfer = o.transfer;
