@@ -254,12 +254,7 @@ template <int D, class K> struct Stencil {
     /// the remap table (nodes). The same indices either way, so the same sums.
     template <class F> EMP_ALWAYS_INLINE decltype(auto) withNodeOf(const Grid<D>& g, F&& f) const
     {
-        if (remap < 0) {
-            const int s1 = g.stride[1], s2 = D == 3 ? g.stride[D - 1] : 0;
-            int first = base[0] + base[1] * s1;
-            if constexpr (D == 3) first += base[D - 1] * s2;
-            return f([=](int i, int j, int k) EMP_LAMBDA_INLINE { return first + i + j * s1 + k * s2; });
-        }
+        if (remap < 0) return f([&](int i, int j, int k) EMP_LAMBDA_INLINE { return rowStart(g, j, k) + i; });
         int node[NS];
         nodes(g, node);
         return f([&](int i, int j, int k) EMP_LAMBDA_INLINE { return node[i + S * (j + S * k)]; });
