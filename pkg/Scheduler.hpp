@@ -194,10 +194,11 @@ public:
             }
     }
 
-    /// Calls f(slot, acc) for every slot where f writes only its own point, with an accumulator
-    /// acc (initialised to init) per block of `gatherBlock` consecutive slots; the blocks'
-    /// accumulators are then folded by combine(total, blockAcc) in block order. The blocks do not
-    /// depend on the thread count, so neither does the result, whatever combine does (sums too).
+    /// Calls f(begin, end, acc) for every block of `gatherBlock` consecutive slots [begin, end),
+    /// where f writes only the points of those slots, with an accumulator acc (initialised to
+    /// init) per block; the blocks' accumulators are then folded by combine(total, blockAcc) in
+    /// block order. The blocks do not depend on the thread count, so neither does the result,
+    /// whatever combine does (sums too).
     template <class Acc, class F, class C> Acc gather(int nThreads, Acc init, F&& f, C&& combine) const
     {
         constexpr int gatherBlock = 2048;
@@ -206,8 +207,7 @@ public:
 #pragma omp parallel for schedule(static) num_threads(nThreads)
         for (int b = 0; b < nb; ++b) {
             Acc acc = init;
-            const int end = std::min(np, (b + 1) * gatherBlock);
-            for (int k = b * gatherBlock; k < end; ++k) f(k, acc);
+            f(b * gatherBlock, std::min(np, (b + 1) * gatherBlock), acc);
             part[b] = acc;
         }
         Acc total = init;

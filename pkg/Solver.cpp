@@ -309,7 +309,7 @@ template <int D, class K> EMP_ALWAYS_INLINE Mat<D> Solver<D, K>::velocityGradien
         const Vec<D> vp = points_.v[p];
         return st.gradientOf(g, [&](int I) { return g.mass[I] > 0 ? g.velocity[I] : vp; });
     } else {
-        return st.gradientOf(g, [&](int I) { return g.velocity[I]; });
+        return st.gradientOf(g, [&](int I) -> const Vec<D>& { return g.velocity[I]; });
     }
 }
 
@@ -647,7 +647,13 @@ template <int D, class K> void Solver<D, K>::stressAndInternalForce(double dt, i
             if constexpr (decltype(corotational)::value) {
                 corotationalOfRun(&order[begin], &stencil_[begin], end - begin, dt);
             } else {
-                for (int k = begin; k < end; ++k) updateStrain(order[k], stencil_[k], dt);
+                const auto strains = [&]() EMP_LAMBDA_INLINE {
+                    for (int k = begin; k < end; ++k) updateStrain(order[k], stencil_[k], dt);
+                };
+                if constexpr (D == 3)
+                    withLaneIsa(strains);  // (Lane3's sums in the lanes' width)
+                else
+                    strains();
                 lawOfRun(&order[begin], end - begin);
             }
             withLaneIsa([&]() EMP_LAMBDA_INLINE {  // (the rows' loops in the lanes' width)
@@ -851,22 +857,39 @@ template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThre
         acc.sum += v.sum() + x.sum() + P.stress[p].sum();
         acc.vmax2 = std::max(acc.vmax2, v.squaredNorm());
     };
-    const auto flip = [&](int k, Check& acc) {
+    const auto flip = [&](int k, Check& acc) EMP_LAMBDA_INLINE {
         const int p = order[k];
         Vec<D> a = Vec<D>::Zero(), vg = Vec<D>::Zero();
         const St& st = stencil_[k];
-        if (st.regular())  // (the same sums, the nodes' addresses from each row's first)
+        if constexpr (D == 3) {  // (the same sums in 4-lane vectors: Lane3)
+            Lane3 a3 = Lane3::zero(), v3 = Lane3::zero();
+            if (st.regular())
+                st.forEachRow(g, [&](int I0, const double* N) EMP_LAMBDA_INLINE {
+                    for (int i = 0; i < S; ++i) {
+                        a3 += N[i] * Lane3::load(g.force[I0 + i]);
+                        v3 += N[i] * Lane3::load(g.velocity[I0 + i]);
+                    }
+                });
+            else
+                st.forEach(g, [&](int I, double N, const Vec<D>&) {
+                    a3 += N * Lane3::load(g.force[I]);
+                    v3 += N * Lane3::load(g.velocity[I]);
+                });
+            a = a3.vec();
+            vg = v3.vec();
+        } else if (st.regular()) {  // (the same sums, the nodes' addresses from each row's first)
             st.forEachRow(g, [&](int I0, const double* N) EMP_LAMBDA_INLINE {
                 for (int i = 0; i < S; ++i) {
                     a += N[i] * g.force[I0 + i];
                     vg += N[i] * g.velocity[I0 + i];
                 }
             });
-        else
+        } else {
             st.forEach(g, [&](int I, double N, const Vec<D>&) {
                 a += N * g.force[I];
                 vg += N * g.velocity[I];
             });
+        }
         const Vec<D> v = P.v[p] + dt * a;
         acc.kinetic += 0.5 * P.mass[p] * P.v[p].dot(v);
         finish(p, v, vg, acc);
@@ -880,7 +903,7 @@ template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThre
         st.cellOffsets(P.x[p], g, u);
         Vec<D> vg;
         Mat<D> Bu;  // B_p / h
-        st.affineSums(g, u, [&](int I) { return g.velocity[I]; }, vg, Bu);
+        st.affineSums(g, u, [&](int I) -> const Vec<D>& { return g.velocity[I]; }, vg, Bu);
         // m tr(C_old D C^T) / 2 at this position (C = B D^-1): tr(C_old B^T) = tr(Cu Bu^T) with
         // P2G's Cu = h C_old.
         double affine = 0;
@@ -896,8 +919,20 @@ template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThre
         total.vmax2 = std::max(total.vmax2, part.vmax2);
         total.kinetic += part.kinetic;
     };
-    Check c = settings_.transfer == Transfer::apic ? schedule_.gather(nThreads, Check{}, apic, combine)
-                                                   : schedule_.gather(nThreads, Check{}, flip, combine);
+    // In 3D each block of points inside withLaneIsa (Lane3's sums in the lanes' width).
+    const auto inLanes = [&](const auto& point) {
+        return [&](int begin, int end, Check& acc) {
+            const auto block = [&]() EMP_LAMBDA_INLINE {
+                for (int k = begin; k < end; ++k) point(k, acc);
+            };
+            if constexpr (D == 3)
+                withLaneIsa(block);
+            else
+                block();
+        };
+    };
+    Check c = settings_.transfer == Transfer::apic ? schedule_.gather(nThreads, Check{}, inLanes(apic), combine)
+                                                   : schedule_.gather(nThreads, Check{}, inLanes(flip), combine);
     const auto offGrid = [&](const Vec<D>& x) {
         for (int d = 0; d < D; ++d) {
             const int b = K::base((x[d] - g.origin[d]) * g.invh);  // monotone in x

@@ -4,6 +4,7 @@
 // the stress/force pass and by G2P.
 #pragma once
 #include <algorithm>
+#include <type_traits>
 
 #include "Grid.hpp"
 #include "PhantomNodes.hpp"
@@ -13,6 +14,34 @@
 #include "Lanes.hpp"
 
 namespace emp {
+
+/// A 3-vector in the first three lanes of a 4-double vector (GCC's vector extension: one AVX
+/// register inside withLaneIsa, two SSE ones outside). Its sums are those of Eigen's 3-vectors,
+/// component by component (the same operations in the same order: the same values), which GCC
+/// leaves as three scalar operations each. Nodal arrays carry a tail (ZeroPages::tail), so that
+/// the 32 bytes from any element may be read; the fourth lane is cleared after the load.
+struct Lane3 {
+    typedef double V __attribute__((vector_size(4 * sizeof(double))));
+    typedef long long Bits __attribute__((vector_size(4 * sizeof(double))));
+    V v;
+    static EMP_ALWAYS_INLINE Lane3 zero() { return Lane3{V{0.0, 0.0, 0.0, 0.0}}; }
+    /// The nodal value at `at` (an element of a ZeroPages array).
+    static EMP_ALWAYS_INLINE Lane3 load(const Vec<3>& at)
+    {
+        V loaded;
+        __builtin_memcpy(&loaded, at.data(), sizeof(V));
+        // (A mask in a register: clearing the lane by an element store went through the stack,
+        // and the reload waited on the two stores, about twice the time of the sums it served.)
+        return Lane3{reinterpret_cast<V>(reinterpret_cast<Bits>(loaded) & Bits{-1, -1, -1, 0})};
+    }
+    EMP_ALWAYS_INLINE Lane3& operator+=(const Lane3& o)
+    {
+        v += o.v;
+        return *this;
+    }
+    friend EMP_ALWAYS_INLINE Lane3 operator*(double s, const Lane3& a) { return Lane3{s * a.v}; }
+    EMP_ALWAYS_INLINE Vec<3> vec() const { return Vec<3>(v[0], v[1], v[2]); }
+};
 
 template <int D, class K> struct Stencil {
     static constexpr int S = K::S;
@@ -209,6 +238,32 @@ template <int D, class K> struct Stencil {
                     sum += row;
                     B.col(1) += o[1][j] * row;
                 }
+            } else if constexpr (std::is_lvalue_reference_v<decltype(v(0))>) {
+                // The same sums in 4-lane vectors (Lane3), from the nodal arrays.
+                Lane3 col[S], s3 = Lane3::zero(), b0 = Lane3::zero(), b1 = Lane3::zero(), b2 = Lane3::zero();
+                for (int i = 0; i < S; ++i) col[i] = Lane3::zero();
+                for (int k = 0; k < S; ++k) {
+                    Lane3 plane = Lane3::zero();
+                    for (int j = 0; j < S; ++j) {
+                        const double wjk = w[1][j] * w[2][k];
+                        Lane3 row = Lane3::zero();
+                        for (int i = 0; i < S; ++i) {
+                            const Lane3 nv = (w[0][i] * wjk) * Lane3::load(v(nodeOf(i, j, k)));
+                            row += nv;
+                            col[i] += nv;
+                        }
+                        plane += row;
+                        b1 += o[1][j] * row;
+                    }
+                    s3 += plane;
+                    b2 += o[2][k] * plane;
+                }
+                for (int i = 0; i < S; ++i) b0 += o[0][i] * col[i];
+                sum = s3.vec();
+                B.col(0) = b0.vec();
+                B.col(1) = b1.vec();
+                B.col(2) = b2.vec();
+                return;
             } else {
                 for (int k = 0; k < S; ++k) {
                     Vec<3> plane = Vec<3>::Zero();
@@ -277,6 +332,29 @@ template <int D, class K> struct Stencil {
                 }
                 L.col(0) = g.invh * c0;
                 L.col(1) = g.invh * c1;
+            } else if constexpr (std::is_lvalue_reference_v<decltype(v(0))>) {
+                // The same sums in 4-lane vectors (Lane3), from the nodal arrays.
+                Lane3 c0 = Lane3::zero(), c1 = Lane3::zero(), c2 = Lane3::zero();
+                for (int k = 0; k < S; ++k) {
+                    Lane3 A = Lane3::zero(), B = Lane3::zero(), C = Lane3::zero();
+                    for (int j = 0; j < S; ++j) {
+                        Lane3 a3 = Lane3::zero(), b3 = Lane3::zero();
+                        for (int i = 0; i < S; ++i) {
+                            const Lane3 vi = Lane3::load(v(nodeOf(i, j, k)));
+                            a3 += dw[0][i] * vi;
+                            b3 += w[0][i] * vi;
+                        }
+                        A += w[1][j] * a3;
+                        B += dw[1][j] * b3;
+                        C += w[1][j] * b3;
+                    }
+                    c0 += w[2][k] * A;
+                    c1 += w[2][k] * B;
+                    c2 += dw[2][k] * C;
+                }
+                L.col(0) = g.invh * c0.vec();
+                L.col(1) = g.invh * c1.vec();
+                L.col(2) = g.invh * c2.vec();
             } else {
                 Vec<3> c0 = Vec<3>::Zero(), c1 = Vec<3>::Zero(), c2 = Vec<3>::Zero();
                 for (int k = 0; k < S; ++k) {

@@ -21,27 +21,30 @@ namespace emp {
 template <class T> struct ZeroPages {
     using value_type = T;
     static constexpr std::size_t mapped = std::size_t(1) << 20;  ///< bytes from which mmap is used
+    /// Bytes allocated after the last element, so that a 32-byte vector load from any element
+    /// stays in the block (Lane3::load reads a 3-vector with the next 8 bytes).
+    static constexpr std::size_t tail = 32;
 
     ZeroPages() = default;
     template <class U> ZeroPages(const ZeroPages<U>&) noexcept {}
 
     T* allocate(std::size_t n)
     {
-        const std::size_t bytes = n * sizeof(T);
+        const std::size_t bytes = n * sizeof(T) + tail;
         void* p = nullptr;
         if (bytes >= mapped) {
             p = mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
             if (p == MAP_FAILED) throw std::bad_alloc();
         } else {
-            p = std::calloc(n ? n : 1, sizeof(T));
+            p = std::calloc(bytes, 1);
             if (!p) throw std::bad_alloc();
         }
         return static_cast<T*>(p);
     }
     void deallocate(T* p, std::size_t n) noexcept
     {
-        if (n * sizeof(T) >= mapped)
-            munmap(p, n * sizeof(T));
+        if (n * sizeof(T) + tail >= mapped)
+            munmap(p, n * sizeof(T) + tail);
         else
             std::free(p);
     }

@@ -596,6 +596,34 @@ template <int D, class K> void checkRowForms()
             });
             tabled.forEach(g, [&](int I, double N, const Vec<D>&) { a2 += N * field0[I]; });
             ASSERT_EQ(std::memcmp(a1.data(), a2.data(), sizeof a1), 0) << emp::name(w);
+            // In 3D the sums that read the nodal arrays run in 4-lane vectors (emp::Lane3; a
+            // callable that returns a value takes Eigen's path, as above): the same bits, in the
+            // lanes' width, with either node indexing.
+            std::copy(field0.begin(), field0.end(), g.velocity.begin());
+            const auto ref = [&](int I) -> const Vec<D>& { return g.velocity[I]; };
+            for (const St* s : {&st, &tabled}) {
+                Mat<D> L3, B3;
+                Vec<D> s3;
+                emp::withLaneIsa([&]() EMP_LAMBDA_INLINE {
+                    L3 = s->gradientOf(g, ref);
+                    s->affineSums(g, o, ref, s3, B3);
+                });
+                ASSERT_EQ(std::memcmp(L3.data(), L1.data(), sizeof L1), 0) << emp::name(w);
+                ASSERT_EQ(std::memcmp(s3.data(), s1.data(), sizeof s1), 0) << emp::name(w);
+                ASSERT_EQ(std::memcmp(B3.data(), B1.data(), sizeof B1), 0) << emp::name(w);
+            }
+            if constexpr (D == 3) {  // (G2P's sums)
+                emp::Lane3 rows = emp::Lane3::zero(), each = emp::Lane3::zero();
+                emp::withLaneIsa([&]() EMP_LAMBDA_INLINE {
+                    st.forEachRow(g, [&](int I0, const double* N) EMP_LAMBDA_INLINE {
+                        for (int i = 0; i < S; ++i) rows += N[i] * emp::Lane3::load(g.velocity[I0 + i]);
+                    });
+                    tabled.forEach(g, [&](int I, double N, const Vec<D>&) { each += N * emp::Lane3::load(g.velocity[I]); });
+                });
+                const Vec<D> r3 = rows.vec(), e3 = each.vec();
+                ASSERT_EQ(std::memcmp(r3.data(), a1.data(), sizeof a1), 0) << emp::name(w);
+                ASSERT_EQ(std::memcmp(e3.data(), a1.data(), sizeof a1), 0) << emp::name(w);
+            }
             ++compared;
         }
     }
