@@ -219,11 +219,11 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
                 for (int d = 0; d < D; ++d)
                     Cu.col(d) = du[d] > 0 ? Vec<D>(Cu.col(d) * (1.0 / (g.h * du[d]))) : Vec<D>::Zero();
                 if (st.regular()) {
-                    st.forEachRowAffine(g, u, mv, Mat<D>(mp * Cu), [&](int I0, const double* N, const double* t) EMP_LAMBDA_INLINE {
+                    st.forEachRowAffine(g, u, mv, Mat<D>(mp * Cu), [&](int I0, const double* N, const double* Nt) EMP_LAMBDA_INLINE {
                         double* m = &g.mass[I0];
                         double* q = g.momentum[I0].data();
                         for (int i = 0; i < S; ++i) m[i] += N[i] * mp;
-                        for (int e = 0; e < S * D; ++e) q[e] += N[e / D] * t[e];
+                        for (int e = 0; e < S * D; ++e) q[e] += Nt[e];
                     });
                     return;
                 }

@@ -34,6 +34,8 @@ struct Lane3 {
         // and the reload waited on the two stores, about twice the time of the sums it served.)
         return Lane3{reinterpret_cast<V>(reinterpret_cast<Bits>(loaded) & Bits{-1, -1, -1, 0})};
     }
+    static EMP_ALWAYS_INLINE Lane3 of(const Vec<3>& a) { return Lane3{V{a[0], a[1], a[2], 0.0}}; }
+    friend EMP_ALWAYS_INLINE Lane3 operator+(const Lane3& a, const Lane3& b) { return Lane3{a.v + b.v}; }
     EMP_ALWAYS_INLINE Lane3& operator+=(const Lane3& o)
     {
         v += o.v;
@@ -490,13 +492,45 @@ template <int D, class K> struct Stencil {
         }
     }
 
-    /// forEachAffine by rows: row(first node, N, t) with t the row's a + M (x_I - x_p).
+    /// forEachAffine by rows: row(first node, N, Nt) with Nt the row's N_I (a + M (x_I - x_p)),
+    /// node by node (S x D numbers: the same operations as forEachAffine's, in the same order).
     template <class Row>
     EMP_ALWAYS_INLINE void forEachRowAffine(const Grid<D>& g, const double (*o)[S], const Vec<D>& a, const Mat<D>& M,
                                             Row&& row) const
     {
         constexpr int E = S * D;
-        double x[E], N[S], t[E];
+        double N[S];
+        alignas(32) double Nt[E];
+        if constexpr (D == 3 && S == 3) {
+            // The 3-vectors in 4-lane vectors (Lane3): GCC left the groups of three scalar. A
+            // row's nine numbers are packed from its three nodes' products by two shuffles.
+            typedef Lane3::Bits Bits;
+            const Lane3 a3 = Lane3::of(a), m0 = Lane3::of(M.col(0)), m1 = Lane3::of(M.col(1)), m2 = Lane3::of(M.col(2));
+            Lane3 x3[S];
+            for (int i = 0; i < S; ++i) x3[i] = o[0][i] * m0;
+#pragma GCC unroll 4
+            for (int k = 0; k < S; ++k) {
+                const Lane3 q3 = a3 + o[2][k] * m2;
+#pragma GCC unroll 4
+                for (int j = 0; j < S; ++j) {
+                    const double wjk = w[1][j] * w[2][k];
+                    const Lane3 r3 = q3 + o[1][j] * m1;
+                    Lane3 p[S];
+                    for (int i = 0; i < S; ++i) {
+                        N[i] = w[0][i] * wjk;
+                        p[i] = N[i] * (r3 + x3[i]);
+                    }
+                    const Lane3::V lo = __builtin_shuffle(p[0].v, p[1].v, Bits{0, 1, 2, 4});
+                    const Lane3::V mid = __builtin_shuffle(p[1].v, p[2].v, Bits{1, 2, 4, 5});
+                    __builtin_memcpy(Nt, &lo, sizeof lo);
+                    __builtin_memcpy(Nt + 4, &mid, sizeof mid);
+                    Nt[8] = p[2].v[2];
+                    row(rowStart(g, j, k), N, Nt);
+                }
+            }
+            return;
+        }
+        double x[E];
         for (int i = 0; i < S; ++i)
             for (int d = 0; d < D; ++d) x[i * D + d] = o[0][i] * M(d, 0);
         if constexpr (D == 2) {
@@ -504,8 +538,8 @@ template <int D, class K> struct Stencil {
             for (int j = 0; j < S; ++j) {
                 const Vec<2> r = a + o[1][j] * M.col(1);
                 for (int i = 0; i < S; ++i) N[i] = w[0][i] * w[1][j];
-                for (int e = 0; e < E; ++e) t[e] = r[e % D] + x[e];
-                row(rowStart(g, j), N, t);
+                for (int e = 0; e < E; ++e) Nt[e] = N[e / D] * (r[e % D] + x[e]);
+                row(rowStart(g, j), N, Nt);
             }
         } else {
 #pragma GCC unroll 4
@@ -516,8 +550,8 @@ template <int D, class K> struct Stencil {
                     const double wjk = w[1][j] * w[2][k];
                     const Vec<3> r = q + o[1][j] * M.col(1);
                     for (int i = 0; i < S; ++i) N[i] = w[0][i] * wjk;
-                    for (int e = 0; e < E; ++e) t[e] = r[e % D] + x[e];
-                    row(rowStart(g, j, k), N, t);
+                    for (int e = 0; e < E; ++e) Nt[e] = N[e / D] * (r[e % D] + x[e]);
+                    row(rowStart(g, j, k), N, Nt);
                 }
             }
         }

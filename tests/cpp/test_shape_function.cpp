@@ -564,9 +564,9 @@ template <int D, class K> void checkRowForms()
                         h[e] += N[e / D] * fb[e % D] - t[e];
                     }
                 });
-                st.forEachRowAffine(g, o, a0, M, [&](int I0, const double* N, const double* t) EMP_LAMBDA_INLINE {
+                st.forEachRowAffine(g, o, a0, M, [&](int I0, const double*, const double* Nt) EMP_LAMBDA_INLINE {
                     double* q = aff2[I0].data();
-                    for (int e = 0; e < S * D; ++e) q[e] += N[e / D] * t[e];
+                    for (int e = 0; e < S * D; ++e) q[e] += Nt[e];
                 });
             });
             ASSERT_EQ(std::memcmp(mass.data(), mass2.data(), nodes * sizeof(double)), 0) << emp::name(w);
