@@ -11,7 +11,9 @@
 // units take 4 or 8 at a time instead of 2, and P2G's uGIMP weights (Stencil::computeRun) go
 // one point per lane (doc/performance.md, "Session 19"). P2G's and the stress pass's scatters
 // run inside withLaneIsa too: each row of a support is one loop over its S x D numbers, one
-// number per lane (Stencil::forEachRow..., doc/performance.md, "Session 20").
+// number per lane (Stencil::forEachRow..., doc/performance.md, "Session 20"). In 3D the sums of
+// nodal 3-vectors (the strain update's velocity gradient, G2P's sums, APIC's rows) use one
+// 4-lane vector per 3-vector (emp::Lane3), also inside withLaneIsa ("Session 21").
 //
 // `laneIsa()` is chosen once per process from the processor's flags; the environment variable
 // EIGENMPM_LANES=baseline|avx2|avx512 (or auto) caps it, and `setLaneIsa` sets it (the tests run
