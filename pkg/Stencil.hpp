@@ -324,8 +324,8 @@ template <int D, class K> struct Stencil {
     {
         return withNodeOf(g, [&](auto nodeOf) EMP_LAMBDA_INLINE {
             Mat<D> L;
-            Vec<D> a, b;  // the sums over x of one row of the support (rowSums)
             if constexpr (D == 2) {
+                Vec<2> a, b;  // the sums over x of one row of the support (rowSums)
                 Vec<2> c0 = Vec<2>::Zero(), c1 = Vec<2>::Zero();
                 for (int j = 0; j < S; ++j) {
                     rowSums([&](int i) EMP_LAMBDA_INLINE { return nodeOf(i, j, 0); }, v, a, b);
@@ -334,46 +334,38 @@ template <int D, class K> struct Stencil {
                 }
                 L.col(0) = g.invh * c0;
                 L.col(1) = g.invh * c1;
-            } else if constexpr (std::is_lvalue_reference_v<decltype(v(0))>) {
-                // The same sums in 4-lane vectors (Lane3), from the nodal arrays.
-                Lane3 c0 = Lane3::zero(), c1 = Lane3::zero(), c2 = Lane3::zero();
-                for (int k = 0; k < S; ++k) {
-                    Lane3 A = Lane3::zero(), B = Lane3::zero(), C = Lane3::zero();
-                    for (int j = 0; j < S; ++j) {
-                        Lane3 a3 = Lane3::zero(), b3 = Lane3::zero();
-                        for (int i = 0; i < S; ++i) {
-                            const Lane3 vi = Lane3::load(v(nodeOf(i, j, k)));
-                            a3 += dw[0][i] * vi;
-                            b3 += w[0][i] * vi;
-                        }
-                        A += w[1][j] * a3;
-                        B += dw[1][j] * b3;
-                        C += w[1][j] * b3;
-                    }
-                    c0 += w[2][k] * A;
-                    c1 += w[2][k] * B;
-                    c2 += dw[2][k] * C;
-                }
-                L.col(0) = g.invh * c0.vec();
-                L.col(1) = g.invh * c1.vec();
-                L.col(2) = g.invh * c2.vec();
             } else {
-                Vec<3> c0 = Vec<3>::Zero(), c1 = Vec<3>::Zero(), c2 = Vec<3>::Zero();
-                for (int k = 0; k < S; ++k) {
-                    Vec<3> A = Vec<3>::Zero(), B = Vec<3>::Zero(), C = Vec<3>::Zero();
-                    for (int j = 0; j < S; ++j) {
-                        rowSums([&](int i) EMP_LAMBDA_INLINE { return nodeOf(i, j, k); }, v, a, b);
-                        A += w[1][j] * a;
-                        B += dw[1][j] * b;
-                        C += w[1][j] * b;
+                // In 4-lane vectors (Lane3) when v gives elements of the nodal arrays, in Eigen's
+                // 3-vectors otherwise: the same operations on each component.
+                const auto sums = [&](auto zero, auto load, auto vec) EMP_LAMBDA_INLINE {
+                    auto c0 = zero, c1 = zero, c2 = zero;
+                    for (int k = 0; k < S; ++k) {
+                        auto A = zero, B = zero, C = zero;
+                        for (int j = 0; j < S; ++j) {
+                            auto a = zero, b = zero;  // the sums over x of one row
+                            for (int i = 0; i < S; ++i) {
+                                const auto vi = load(nodeOf(i, j, k));
+                                a += dw[0][i] * vi;
+                                b += w[0][i] * vi;
+                            }
+                            A += w[1][j] * a;
+                            B += dw[1][j] * b;
+                            C += w[1][j] * b;
+                        }
+                        c0 += w[2][k] * A;
+                        c1 += w[2][k] * B;
+                        c2 += dw[2][k] * C;
                     }
-                    c0 += w[2][k] * A;
-                    c1 += w[2][k] * B;
-                    c2 += dw[2][k] * C;
-                }
-                L.col(0) = g.invh * c0;
-                L.col(1) = g.invh * c1;
-                L.col(2) = g.invh * c2;
+                    L.col(0) = g.invh * vec(c0);
+                    L.col(1) = g.invh * vec(c1);
+                    L.col(2) = g.invh * vec(c2);
+                };
+                if constexpr (std::is_lvalue_reference_v<decltype(v(0))>)
+                    sums(Lane3::zero(), [&](int I) EMP_LAMBDA_INLINE { return Lane3::load(v(I)); },
+                         [](const Lane3& x) EMP_LAMBDA_INLINE { return x.vec(); });
+                else
+                    sums(Vec<3>(Vec<3>::Zero()), [&](int I) EMP_LAMBDA_INLINE { return Vec<3>(v(I)); },
+                         [](const Vec<3>& x) EMP_LAMBDA_INLINE { return x; });
             }
             return L;
         });
