@@ -894,10 +894,11 @@ template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThre
         acc.kinetic += 0.5 * P.mass[p] * P.v[p].dot(v);
         finish(p, v, vg, acc);
     };
-    // In 2D as before this session: left to GCC's inliner (forced inline it ran 3 % slower).
+    // 2D: the FLIP body left to GCC's inliner, as before session 21 (forcing it inline made no
+    // measurable difference there). 3D forces it inline into withLaneIsa (Lane3's sums).
     const auto flip = [&](int k, Check& acc) { flipInline(k, acc); };
     // APIC: v_p = sum N v_I and B_p = sum N v_I (x_I - x_p)^T (Kinematics.hpp). Forced inline
-    // into the loop (the FLIP body is not: in 3D it then took 0.8 % more instructions).
+    // into the loop.
     const auto apic = [&](int k, Check& acc) EMP_LAMBDA_INLINE {
         const int p = order[k];
         const St& st = stencil_[k];
