@@ -11,23 +11,6 @@ namespace emp {
 
 namespace {
 
-inline double orient(const Vec<2>& a, const Vec<2>& b, const Vec<2>& p)
-{
-    return (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0]);
-}
-
-/// Segment p-q against crack segment a-b: p and q on different sides of the line a-b (a point on
-/// the line counts as the positive side) and the crossing at a parameter t in [0, 1) along a-b,
-/// or in (0, 1) when a is the crack's first vertex (a tip, like the last one).
-inline bool crossesSegment(const Vec<2>& p, const Vec<2>& q, const Vec<2>& a, const Vec<2>& b, bool aIsTip)
-{
-    if ((orient(a, b, p) >= 0) == (orient(a, b, q) >= 0)) return false;
-    const double oa = orient(p, q, a), ob = orient(p, q, b);
-    if (oa == ob) return false;
-    const double t = oa / (oa - ob);
-    return (aIsTip ? t > 0 : t >= 0) && t < 1;
-}
-
 /// Newell normal (not normalised) and the polygon's size.
 Vec<3> newellNormal(const std::vector<Vec<3>>& v)
 {
@@ -105,15 +88,10 @@ template <int D> int PhantomNodes<D>::addCrack(const std::vector<Vec<D>>& v)
     return static_cast<int>(cracks_.size()) - 1;
 }
 
-template <int D> bool PhantomNodes<D>::crosses(int c, const Vec<D>& p, const Vec<D>& q) const
+template <int D> bool PhantomNodes<D>::crossesPolygon(int c, const Vec<D>& p, const Vec<D>& q) const
 {
-    const auto& v = cracks_[c];
-    if constexpr (D == 2) {
-        bool odd = false;
-        for (std::size_t i = 0; i + 1 < v.size(); ++i)
-            if (crossesSegment(p, q, v[i], v[i + 1], i == 0)) odd = !odd;
-        return odd;
-    } else {
+    if constexpr (D == 3) {
+        const auto& v = cracks_[c];
         const Vec<3> n = newellNormal(v);
         const double off = n.dot(v[0]);
         const double sp = n.dot(p) - off, sq = n.dot(q) - off;
@@ -121,6 +99,8 @@ template <int D> bool PhantomNodes<D>::crosses(int c, const Vec<D>& p, const Vec
         const Vec<3> x = p + (sp / (sp - sq)) * (q - p);
         const int a = dominantAxis(n);
         return insidePolygon(v, (a + 1) % 3, (a + 2) % 3, x[(a + 1) % 3], x[(a + 2) % 3]);
+    } else {
+        return crosses(c, p, q);
     }
 }
 
@@ -241,7 +221,16 @@ template <int D> int PhantomNodes<D>::update(const Grid<D>& g, int rings)
         cells.clear();
         markCells(static_cast<int>(c), g, cells);
         nodes.clear();
-        // The corners of each cut cell and of the `rings` cells around it.
+        // The corners of each cut cell and of the `rings` cells around it, each node once: the
+        // crack's layer of the twin table (zero after reset) marks those listed, so that only
+        // distinct nodes are sorted (a node is a corner of up to (2 + 2 rings)^D listed cells).
+        int* listed = &twin_[c * nn];
+        const auto list = [&](long I) {
+            if (!listed[I]) {
+                listed[I] = 1;
+                nodes.push_back(I);
+            }
+        };
         for (long cell : cells) {
             std::array<long, D> ijk;
             long r = cell;
@@ -256,15 +245,14 @@ template <int D> int PhantomNodes<D>::update(const Grid<D>& g, int rings)
             }
             if constexpr (D == 2) {
                 for (long j = lo[1]; j <= hi[1]; ++j)
-                    for (long i = lo[0]; i <= hi[0]; ++i) nodes.push_back(i + j * g.stride[1]);
+                    for (long i = lo[0]; i <= hi[0]; ++i) list(i + j * g.stride[1]);
             } else {
                 for (long k = lo[2]; k <= hi[2]; ++k)
                     for (long j = lo[1]; j <= hi[1]; ++j)
-                        for (long i = lo[0]; i <= hi[0]; ++i) nodes.push_back(i + j * g.stride[1] + k * g.stride[2]);
+                        for (long i = lo[0]; i <= hi[0]; ++i) list(i + j * g.stride[1] + k * g.stride[2]);
             }
         }
         std::sort(nodes.begin(), nodes.end());
-        nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
         for (long I : nodes) {
             twin_[c * nn + I] = 1 + nn + numTwins_++;
             if (!mark_[I]) {
@@ -275,15 +263,6 @@ template <int D> int PhantomNodes<D>::update(const Grid<D>& g, int rings)
     }
     std::sort(marked_.begin(), marked_.end());
     return numTwins_;
-}
-
-template <int D> int PhantomNodes<D>::map(const Vec<D>& x, int I, const Vec<D>& xI) const
-{
-    for (std::size_t c = 0; c < cracks_.size(); ++c) {
-        const int t = twin_[c * numNodes_ + I] - 1;
-        if (t >= 0 && crosses(static_cast<int>(c), x, xI)) return t;
-    }
-    return I;
 }
 
 template <int D> void PhantomNodes<D>::nearest(int c, const Vec<D>& x, Vec<D>& point, Vec<D>& normal) const

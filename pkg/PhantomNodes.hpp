@@ -15,6 +15,7 @@
 // a segment through an interior polyline vertex counts one crossing (parameters in [0, 1) along
 // each crack segment), and a segment through either end of the crack (a tip) counts none.
 #pragma once
+#include <algorithm>
 #include <cstdint>
 #include <vector>
 
@@ -23,6 +24,27 @@
 #include "ZeroPages.hpp"
 
 namespace emp {
+
+namespace phantom {
+
+inline double orient(const Vec<2>& a, const Vec<2>& b, const Vec<2>& p)
+{
+    return (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0]);
+}
+
+/// Segment p-q against crack segment a-b: p and q on different sides of the line a-b (a point on
+/// the line counts as the positive side) and the crossing at a parameter t in [0, 1) along a-b,
+/// or in (0, 1) when a is the crack's first vertex (a tip, like the last one).
+inline bool crossesSegment(const Vec<2>& p, const Vec<2>& q, const Vec<2>& a, const Vec<2>& b, bool aIsTip)
+{
+    if ((orient(a, b, p) >= 0) == (orient(a, b, q) >= 0)) return false;
+    const double oa = orient(p, q, a), ob = orient(p, q, b);
+    if (oa == ob) return false;
+    const double t = oa / (oa - ob);
+    return (aIsTip ? t > 0 : t >= 0) && t < 1;
+}
+
+}  // namespace phantom
 
 template <int D> class PhantomNodes {
 public:
@@ -62,7 +84,15 @@ public:
     bool marked(int node) const { return mark_[node] != 0; }
     const std::vector<int>& markedNodes() const { return marked_; }
     /// The node a point at x uses in place of the marked node I at xI: a twin or I itself.
-    int map(const Vec<D>& x, int I, const Vec<D>& xI) const;
+    /// (Inline, with the 2D test: P2G calls it for every marked node of the points near a crack.)
+    int map(const Vec<D>& x, int I, const Vec<D>& xI) const
+    {
+        for (std::size_t c = 0; c < cracks_.size(); ++c) {
+            const int t = twin_[c * numNodes_ + I] - 1;
+            if (t >= 0 && crosses(static_cast<int>(c), x, xI)) return t;
+        }
+        return I;
+    }
     /// Calls f(twin) for every twin of node I.
     template <class F> void forEachTwin(int I, F&& f) const
     {
@@ -80,10 +110,46 @@ public:
     /// nearest segment's direction; 3D: the polygon's Newell normal): the positive side.
     void nearest(int c, const Vec<D>& x, Vec<D>& point, Vec<D>& normal) const;
 
+    /// 2D: whether no segment between two points of the box [lo, hi] can cross a crack, by a
+    /// margin far above round-off: each crack segment's bounding box lies apart from the box
+    /// widened by `margin`, or that widened box lies on one side of the segment's line (its
+    /// corners farther than margin times the segment's length). Conservative: false when unsure.
+    bool clearOf(const Vec<D>& lo, const Vec<D>& hi, double margin) const
+    {
+        if constexpr (D != 2) return false;
+        const double x0 = lo[0] - margin, x1 = hi[0] + margin, y0 = lo[1] - margin, y1 = hi[1] + margin;
+        for (const auto& v : cracks_)
+            for (std::size_t i = 0; i + 1 < v.size(); ++i) {
+                const Vec<2> a = v[i].template head<2>(), b = v[i + 1].template head<2>();
+                if (std::max(a[0], b[0]) < x0 || std::min(a[0], b[0]) > x1 || std::max(a[1], b[1]) < y0 ||
+                    std::min(a[1], b[1]) > y1)
+                    continue;
+                const double tol = margin * (b - a).norm();
+                const double o0 = phantom::orient(a, b, Vec<2>(x0, y0)), o1 = phantom::orient(a, b, Vec<2>(x1, y0));
+                const double o2 = phantom::orient(a, b, Vec<2>(x0, y1)), o3 = phantom::orient(a, b, Vec<2>(x1, y1));
+                if ((o0 > tol && o1 > tol && o2 > tol && o3 > tol) || (o0 < -tol && o1 < -tol && o2 < -tol && o3 < -tol))
+                    continue;
+                return false;
+            }
+        return true;
+    }
+
     /// Whether the segment p-q crosses crack c (the rule above).
-    bool crosses(int c, const Vec<D>& p, const Vec<D>& q) const;
+    bool crosses(int c, const Vec<D>& p, const Vec<D>& q) const
+    {
+        if constexpr (D == 2) {
+            const auto& v = cracks_[c];
+            bool odd = false;
+            for (std::size_t i = 0; i + 1 < v.size(); ++i)
+                if (phantom::crossesSegment(p, q, v[i], v[i + 1], i == 0)) odd = !odd;
+            return odd;
+        } else {
+            return crossesPolygon(c, p, q);
+        }
+    }
 
 private:
+    bool crossesPolygon(int c, const Vec<D>& p, const Vec<D>& q) const;  ///< crosses() in 3D
     void markCells(int c, const Grid<D>& g, std::vector<long>& cells) const;
 
     std::vector<std::vector<Vec<D>>> cracks_;

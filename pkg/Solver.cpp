@@ -678,7 +678,8 @@ template <int D, class K> typename Solver<D, K>::St Solver<D, K>::stencilOf(int 
 {
     St st;
     st.compute(points_.x[p], grid_, lp_);
-    if (!phantom_.empty() || mapping_ == 2) mapSupport(st, p, static_cast<int>(points_.size()));
+    // As in P2G: a support outside the box of the marked nodes has no node to map.
+    if (mapping_ && st.overlaps(markedLo_, markedHi_)) mapSupport(st, p, static_cast<int>(points_.size()));
     return st;
 }
 

@@ -49,7 +49,7 @@ template <int D, class K> struct Stencil {
     static constexpr int S = K::S;
     static constexpr int NS = D == 2 ? S * S : S * S * S;
     int base[D];
-    int remap;  ///< offset of the node indices in Grid::remap, or -1 (no crack near)
+    int remap;  ///< offset of the node indices in Grid::remap, or -1 (the regular lattice's nodes)
     double w[D][S], dw[D][S];
 
     /// Weights and derivatives of the point at x for the particle half-width lp (cells).
@@ -107,19 +107,33 @@ template <int D, class K> struct Stencil {
     /// when any node is marked.
     void mapAcrossCracks(const Vec<D>& x, Grid<D>& g, const PhantomNodes<D>& ph, int slot)
     {
-        mapMarked(g, ph, slot, [&](int I) { return ph.map(x, I, g.nodePosition(I)); });
+        if constexpr (D == 2) {
+            // The point lies in its support's box (the nodes base .. base + S - 1): when no crack
+            // passes near that box, no segment from the point to a node can cross one.
+            Vec<D> lo, hi;
+            for (int d = 0; d < D; ++d) {
+                lo[d] = g.origin[d] + base[d] * g.h;
+                hi[d] = g.origin[d] + (base[d] + S - 1) * g.h;
+            }
+            if (ph.clearOf(lo, hi, 1e-6 * g.h)) return;
+        }
+        mapMarked<true>(g, ph, slot, [&](int I, int k) { return ph.map(x, I, nodePosition(g, k)); });
     }
 
     /// Bodies in one grid (PhantomNodes::updateBodies): a point of `body` uses that body's twin of
     /// each marked node.
     void mapBodies(int body, Grid<D>& g, const PhantomNodes<D>& ph, int slot)
     {
-        mapMarked(g, ph, slot, [&](int I) { return ph.mapBody(body, I); });
+        mapMarked<false>(g, ph, slot, [&](int I, int) { return ph.mapBody(body, I); });
     }
 
-    /// Replaces each marked support node I by f(I), writing the S^D node indices into slot
-    /// `slot` of Grid::remap, when any node is marked.
-    template <class F> void mapMarked(Grid<D>& g, const PhantomNodes<D>& ph, int slot, F&& f)
+    /// Replaces each marked support node I (support node k) by f(I, k), writing the S^D node
+    /// indices into slot `slot` of Grid::remap, when any node is marked. With `changedOnly`, only
+    /// when f replaced one: a support whose marked nodes all stay themselves (a point near a
+    /// crack whose segments to them cross none) keeps the regular lattice and its sums by rows,
+    /// the same numbers. (Bodies in one grid need the slot written: it tells which points reach
+    /// a shared node.)
+    template <bool changedOnly, class F> void mapMarked(Grid<D>& g, const PhantomNodes<D>& ph, int slot, F&& f)
     {
         int node[NS];
         bool any = false;
@@ -128,8 +142,14 @@ template <int D, class K> struct Stencil {
             any = any || ph.marked(node[k]);
         }
         if (!any) return;
+        bool changed = false;
         for (int k = 0; k < NS; ++k)
-            if (ph.marked(node[k])) node[k] = f(node[k]);
+            if (ph.marked(node[k])) {
+                const int I = f(node[k], k);
+                changed = changed || I != node[k];
+                node[k] = I;
+            }
+        if (changedOnly && !changed) return;
         remap = slot * NS;
         std::copy(node, node + NS, &g.remap[remap]);
     }
@@ -140,6 +160,15 @@ template <int D, class K> struct Stencil {
         int I = base[0] + k % S + (base[1] + (k / S) % S) * g.stride[1];
         if constexpr (D == 3) I += (base[2] + k / (S * S)) * g.stride[2];
         return I;
+    }
+
+    /// Position of support node k: Grid::nodePosition(regularNode(g, k)) from the lattice
+    /// coordinates at hand, without its integer divisions (the same numbers).
+    Vec<D> nodePosition(const Grid<D>& g, int k) const
+    {
+        Vec<D> x;
+        for (int d = 0, r = k; d < D; ++d, r /= S) x[d] = g.origin[d] + (base[d] + r % S) * g.h;
+        return x;
     }
 
     /// Offsets x_I - x_p (m) of the support nodes from the point at x, per direction: o[d][k]

@@ -509,6 +509,89 @@ TEST(PhantomMarking, FacesMapToTheTwinsOfTheOtherSide2D)
     EXPECT_GT(twinsUsed, 100);
 }
 
+/// The stencil's mapping (Stencil::mapAcrossCracks: node positions from its lattice coordinates,
+/// the points whose support box no crack comes near skipped by PhantomNodes::clearOf, and a remap
+/// slot only when a twin replaces a node) is the plain rule node by node: each marked node I of
+/// the support maps to ph.map(x, I, Grid::nodePosition(I)), the others stay. Points on a grid
+/// whose spacing and origin are not round numbers, around a polyline crack, some exactly on its
+/// vertices and segments.
+template <int D, class K>
+void expectStencilMappingIsThePlainRule(const Grid<D>& g, const PhantomNodes<D>& ph, const std::vector<Vec<D>>& xs,
+                                        int& twinsUsed, int& markedButRegular)
+{
+    using St = emp::Stencil<D, K>;
+    Grid<D> gm = g;
+    gm.remap.assign(St::NS, -7);
+    for (const Vec<D>& x : xs) {
+        St st;
+        st.compute(x, gm, emp::HalfWidth(0.25));
+        st.mapAcrossCracks(x, gm, ph, 0);
+        bool changed = false, marked = false;
+        for (int k = 0; k < St::NS; ++k) {
+            const int I = st.regularNode(gm, k);
+            const int expected = ph.marked(I) ? ph.map(x, I, gm.nodePosition(I)) : I;
+            const int got = st.regular() ? I : gm.remap[st.remap + k];
+            ASSERT_EQ(got, expected) << "point " << x.transpose() << ", support node " << k;
+            changed = changed || expected != I;
+            marked = marked || ph.marked(I);
+            for (int d = 0; d < D; ++d)  // the position from the lattice coordinates, bit for bit
+                ASSERT_EQ(st.nodePosition(gm, k)[d], gm.nodePosition(I)[d]);
+        }
+        ASSERT_EQ(st.regular(), !changed) << "point " << x.transpose() << ": a remap slot only when a twin is used";
+        twinsUsed += changed;
+        markedButRegular += marked && !changed;
+    }
+}
+
+TEST(PhantomMarking, StencilMappingIsThePlainRule2D)
+{
+    const double h = 0.0137;
+    const Vec<2> origin(-0.0371, 0.0213);
+    const Grid<2> g = makeGrid<2>(origin, h, {40, 32});
+    PhantomNodes<2> ph;
+    const std::vector<Vec<2>> crack = {origin + h * v2(3.3, 15.1), origin + h * v2(14.0, 17.2), origin + h * v2(22.5, 12.4),
+                                       origin + h * v2(30.2, 16.0)};
+    ph.addCrack(crack);
+    ph.addCrack({origin + h * v2(9.7, 4.2), origin + h * v2(9.7, 11.6)});  // a second, vertical
+    ph.update(g, GimpKernel::crackRings);
+    std::vector<Vec<2>> xs;
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<double> ux(2.0, 37.0), uy(2.0, 29.0);
+    for (int i = 0; i < 6000; ++i) xs.push_back(origin + h * v2(ux(rng), uy(rng)));
+    for (const auto& c : {crack, ph.vertices(1)})
+        for (std::size_t i = 0; i + 1 < c.size(); ++i)
+            for (double t : {0.0, 0.25, 0.5, 1.0}) xs.push_back(c[i] + t * (c[i + 1] - c[i]));  // on the crack
+    int twins = 0, regular = 0;
+    expectStencilMappingIsThePlainRule<2, GimpKernel>(g, ph, xs, twins, regular);
+    EXPECT_GT(twins, 300);
+    EXPECT_GT(regular, 300);  // near the cracks, yet no segment to a node crosses one
+    int linearTwins = 0, linearRegular = 0;
+    PhantomNodes<2> ph1;
+    ph1.addCrack(crack);
+    ph1.update(g, LinearKernel::crackRings);
+    expectStencilMappingIsThePlainRule<2, LinearKernel>(g, ph1, xs, linearTwins, linearRegular);
+    EXPECT_GT(linearTwins, 100);
+}
+
+TEST(PhantomMarking, StencilMappingIsThePlainRule3D)
+{
+    const double h = 0.021;
+    const Vec<3> origin(0.013, -0.029, 0.0071);
+    const Grid<3> g = makeGrid<3>(origin, h, {16, 16, 16});
+    PhantomNodes<3> ph;
+    ph.addCrack({origin + h * v3(2.5, 2.5, 7.3), origin + h * v3(9.5, 2.5, 8.1), origin + h * v3(9.5, 13.5, 8.1),
+                 origin + h * v3(2.5, 13.5, 7.3)});
+    ph.update(g, GimpKernel::crackRings);
+    std::vector<Vec<3>> xs;
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<double> u(2.0, 13.0);
+    for (int i = 0; i < 4000; ++i) xs.push_back(origin + h * v3(u(rng), u(rng), u(rng)));
+    int twins = 0, regular = 0;
+    expectStencilMappingIsThePlainRule<3, GimpKernel>(g, ph, xs, twins, regular);
+    EXPECT_GT(twins, 200);
+    EXPECT_GT(regular, 100);
+}
+
 TEST(PhantomMarking, FacesMapToTheTwinsOfTheOtherSide3D)
 {
     const Grid<3> g = makeGrid<3>(v3(0, 0, 0), 1.0, {14, 14, 14});
