@@ -95,6 +95,17 @@ public:
     /// s numColumns() + c, in increasing id order; without columns the tiles are the strips.
     const std::vector<int>& tileStart() const { return numColumns_ > 1 ? tileStart_ : stripStart_; }
     int size() const { return static_cast<int>(order_.size()); }
+    /// The slot of point p in the last binning (its tile's slots are in increasing id order: a
+    /// binary search there), or -1 when p was not binned then.
+    int slotOf(int p) const
+    {
+        if (p < 0 || p >= static_cast<int>(keyOf_.size()) || order_.size() != keyOf_.size()) return -1;
+        const std::vector<int>& start = tileStart();
+        const int key = keyOf_[p];
+        const auto first = order_.begin() + start[key], last = order_.begin() + start[key + 1];
+        const auto it = std::lower_bound(first, last, p);
+        return it != last && *it == p ? static_cast<int>(it - order_.begin()) : -1;
+    }
 
     /// Calls f(slot) for every slot, where f may scatter to the nodes of its point's support:
     /// two colours of strips (each in two colours of columns, with columns), each strip in slot

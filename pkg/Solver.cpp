@@ -683,6 +683,16 @@ template <int D, class K> typename Solver<D, K>::St Solver<D, K>::stencilOf(int 
     return st;
 }
 
+template <int D, class K> const typename Solver<D, K>::St& Solver<D, K>::stepStencil(int p, St& scratch)
+{
+    // P2G's stencil of p (the same numbers as stencilOf: the points have not moved since, and
+    // its remap slot is p's own), found in p's tile by its id; stencilOf where p was not binned.
+    const int k = schedule_.slotOf(p);
+    if (k >= 0 && static_cast<std::size_t>(k) < stencil_.size()) return stencil_[k];
+    scratch = stencilOf(p);
+    return scratch;
+}
+
 template <int D, class K> void Solver<D, K>::erode(double dt, int nThreads)
 {
     // Eigenerosion (Eqs 23-24) belongs between the stress update and the internal force, so that
@@ -700,7 +710,8 @@ template <int D, class K> void Solver<D, K>::erode(double dt, int nThreads)
     const bool corotational = settings_.stressUpdate == StressUpdate::corotational;
     for (std::size_t e = 0; e < eroded.size(); ++e) {
         const int p = eroded[e];
-        const St st = stencilOf(p);
+        St scratch;
+        const St& st = stepStencil(p, scratch);
         double volume = points_.volume[p];
         if (corotational) {  // erosion set sigma- of the co-rotated strain: rotate it back
             points_.stress[p] = spatialStress(p, points_.stress[p]);
@@ -720,7 +731,8 @@ template <int D, class K> void Solver<D, K>::tractionForces()
         const auto& tc = tractions_[c];
         const Vec<D> t = (rampFactor(time_, tc.rampTime) * tc.traction).head<D>();
         forEachTractionPoint(c, [&](int p, int k) {
-            const St st = stencilOf(p);
+            St scratch;
+            const St& st = stepStencil(p, scratch);
             const Vec<D> f = t * (points_.volume[p] / tc.layer);
             st.forEach(g, [&](int I, double N, const Vec<D>&) { addNodeForce(I, N * f, 1 + static_cast<std::int64_t>(c), k); });
         });
@@ -805,7 +817,8 @@ template <int D, class K> void Solver<D, K>::accumulateExternalWork(double dt)
         const auto& tc = tractions_[c];
         const Vec<D> t = (rampFactor(time_, tc.rampTime) * tc.traction).head<D>();
         forEachTractionPoint(c, [&](int p, int) {
-            const St st = stencilOf(p);
+            St scratch;
+            const St& st = stepStencil(p, scratch);
             const Vec<D> f = t * (points_.volume[p] / tc.layer);
             st.forEach(g, [&](int I, double N, const Vec<D>&) {
                 tractionWork_ += dt * N * f.dot(g.velocity[I] - 0.5 * dt * g.force[I]);

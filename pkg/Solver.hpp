@@ -282,6 +282,9 @@ private:
     St stencilOf(int p);
     /// Maps point p's support onto the twins of this step (across the cracks, or its body's)
     /// in slot `slot` of Grid::remap.
+    /// In a step, after P2G: point p's stencil from P2G (Scheduler::slotOf), else stencilOf(p)
+    /// in `scratch`. Only until G2P moves the points.
+    const St& stepStencil(int p, St& scratch);
     void mapSupport(St& st, int p, int slot);
     /// APIC's moment matrix diagonal of point p at its current position (Stencil::momentDiagonal).
     Vec<D> momentDiagonalAt(int p) const;

@@ -162,6 +162,29 @@ TEST(Scheduler, BinningWithColumnsIsTheStableSortByStripThenColumn)
     EXPECT_THROW(narrow.bin<K>(x, g, 1), emp::ParameterError);
 }
 
+TEST(Scheduler, SlotOfIsTheInverseOfTheOrder)
+{
+    // Scheduler::slotOf (the traction and erosion stages read P2G's stencils by it) finds every
+    // point's slot of the last binning, with and without columns, and -1 for an unknown id.
+    Grid<D> g;
+    g.resize(Vec<D>::Zero(), 1.0, std::array<int, D>{40, 90});
+    std::mt19937 rng(31);
+    std::uniform_real_distribution<double> ux(1.0, 38.4), uy(1.0, 87.0);
+    std::vector<Vec<D>> x(20011);
+    for (auto& p : x) p = Vec<D>(ux(rng), uy(rng));
+    for (int cells : {0, 2, 7}) {
+        Scheduler<D> sch;
+        sch.setColumns(cells);
+        EXPECT_EQ(sch.slotOf(0), -1);  // not binned yet
+        for (int T : {1, 3}) {
+            ASSERT_EQ(sch.bin<K>(x, g, T), -1);
+            for (int k = 0; k < sch.size(); ++k) ASSERT_EQ(sch.slotOf(sch.order()[k]), k) << "columns of " << cells;
+            EXPECT_EQ(sch.slotOf(-1), -1);
+            EXPECT_EQ(sch.slotOf(static_cast<int>(x.size())), -1);
+        }
+    }
+}
+
 TEST(Scheduler, ScatterWithColumnsGivesEveryNodeItsContributionsInOneOrderWhateverTheThreads)
 {
     // Every node records which slots wrote it, in the order they did: that order is the same for
