@@ -50,7 +50,9 @@ template <int D> void box(const MaterialPoints<D>& P, const std::vector<int>& id
 
 }  // namespace
 
-template <int D> template <class V> void EigenErosion<D>::buildList(const V& view, Vec<D> lo, Vec<D> hi)
+template <int D>
+template <class V>
+void EigenErosion<D>::buildList(const V& view, Vec<D> lo, Vec<D> hi, const PointSupport<D>* rows, const Grid<D>* g)
 {
     // Bin only the intact points in the box [lo, hi] widened by 2 kappa, in the single-process
     // order (a cell visits its points in that order, so every sum runs in it).
@@ -58,10 +60,28 @@ template <int D> template <class V> void EigenErosion<D>::buildList(const V& vie
     lo.array() -= margin;
     hi.array() += margin;
     binned_.clear();
-    const int n = view.total();
-    for (int q = 0; q < n; ++q)
-        if (view.damage(q) > 0 && (view[q].array() >= lo.array()).all() && (view[q].array() <= hi.array()).all())
-            binned_.push_back(q);
+    const auto inBox = [&](int q) {
+        return view.damage(q) > 0 && (view[q].array() >= lo.array()).all() && (view[q].array() <= hi.array()).all();
+    };
+    if (rows && g) {
+        // This process's points from the cell rows of the box along the last axis (a row more
+        // on each side: the rows hold floor((x - origin) / h)), in increasing id order: the
+        // points the scan of all would find, in its order.
+        constexpr int last = D - 1;
+        const auto row = [&](double x) {
+            const double c = std::floor((x - g->origin[last]) * g->invh);
+            return static_cast<int>(std::clamp(c, -2.0, static_cast<double>(g->n[last]) + 1.0));
+        };
+        rows->pointsInRows(row(lo[last]) - 1, row(hi[last]) + 1, rowPoints_);
+        for (const int q : rowPoints_)
+            if (q < view.n && inBox(q)) binned_.push_back(q);
+        for (int q = view.n; q < view.total(); ++q)
+            if (inBox(q)) binned_.push_back(q);
+    } else {
+        const int n = view.total();
+        for (int q = 0; q < n; ++q)
+            if (inBox(q)) binned_.push_back(q);
+    }
     if (view.G) std::inplace_merge(binned_.begin(), std::lower_bound(binned_.begin(), binned_.end(), view.n), binned_.end(),
                                    [&](int a, int b) { return view.order(a) < view.order(b); });
     cells_.build(view, binned_, settings_.kappa, lo, hi);
@@ -80,7 +100,7 @@ template <int D> template <class V> double EigenErosion<D>::rate(const V& view, 
 template <int D>
 int EigenErosion<D>::apply(MaterialPoints<D>& P, const std::vector<ElasticMaterial>& materials,
                            std::int64_t step, double time, int nThreads, const GhostPoints<D>* ghosts,
-                           Transport* transport)
+                           Transport* transport, const PointSupport<D>* rows, const Grid<D>* g)
 {
     const ErosionSettings& s = settings_;
     const double hSource = s.Gc / (s.alpha * s.kappa);  // alpha kappa H >= Gc  <=>  H >= hSource
@@ -116,7 +136,7 @@ int EigenErosion<D>::apply(MaterialPoints<D>& P, const std::vector<ElasticMateri
     if (!searched_) return 0;
     // Candidates: this rank's intact points within kappa of a source (the only ones that can
     // reach Gc).
-    buildList(view, lo, hi);
+    buildList(view, lo, hi, rows, g);
     if (static_cast<int>(mark_.size()) != n) mark_.assign(n, 0);
     for (int src : sources_)
         cells_.forEachWithin(view, view[src], s.kappa, [&](int q) {

@@ -14,6 +14,7 @@
 #include "CellList.hpp"
 #include "Distribution.hpp"
 #include "ElasticMaterial.hpp"
+#include "GridCondition.hpp"
 #include "MaterialPoints.hpp"
 
 namespace emp {
@@ -41,8 +42,13 @@ public:
     /// (`ghosts`) and its transport: every rank must call it; the eroded set, the events and the
     /// dissipated energy are then those of the single-process run, on every rank (events name
     /// the points by globalId).
+    ///
+    /// Given the step's `rows` (the solver's points by cell row, on grid `g`), the neighbour
+    /// list scans only the points of the rows of the sources' box instead of every point: the
+    /// same list.
     int apply(MaterialPoints<D>& P, const std::vector<ElasticMaterial>& materials, std::int64_t step,
-              double time, int nThreads, const GhostPoints<D>* ghosts = nullptr, Transport* transport = nullptr);
+              double time, int nThreads, const GhostPoints<D>* ghosts = nullptr, Transport* transport = nullptr,
+              const PointSupport<D>* rows = nullptr, const Grid<D>* g = nullptr);
 
     /// G_p of every listed point by brute force over all intact points (for tests and
     /// diagnostics; O(N^2)).
@@ -76,7 +82,8 @@ public:
     }
 
 private:
-    template <class V> void buildList(const V& view, Vec<D> lo, Vec<D> hi);
+    template <class V>
+    void buildList(const V& view, Vec<D> lo, Vec<D> hi, const PointSupport<D>* rows = nullptr, const Grid<D>* g = nullptr);
     template <class V> double rate(const V& view, int p) const;
 
     ErosionSettings settings_;
@@ -84,7 +91,7 @@ private:
     std::vector<ErosionEvent> events_;
     bool searched_ = false;
     CellList<D> cells_;
-    std::vector<int> sources_, binned_, candidates_, eroding_;
+    std::vector<int> sources_, binned_, candidates_, eroding_, rowPoints_;
     std::vector<Mat<D>> before_;
     std::vector<char> mark_;
 };

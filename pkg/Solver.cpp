@@ -701,8 +701,9 @@ template <int D, class K> void Solver<D, K>::erode(double dt, int nThreads)
     // erosion order, instead of a separate pass over all points.
     if (!erosion_) return;
     if (dist_) dist_->ghosts(points_, grid_, erosion_->settings().kappa, ghosts_);
+    const Support rows(this);
     if (erosion_->apply(points_, materials_, steps_ + 1, time_ + dt, nThreads, dist_ ? &ghosts_ : nullptr,
-                        dist_ ? &dist_->transport() : nullptr) == 0)
+                        dist_ ? &dist_->transport() : nullptr, &rows, &grid_) == 0)
         return;
     const auto& eroded = erosion_->lastEroded();
     const auto& before = erosion_->stressBeforeErosion();

@@ -601,6 +601,66 @@ TEST(Stability, ErosionThresholdIsExactForAlpha0p5To4AndKappa0p5hTo3h)
             }
 }
 
+/// The points of given cell rows along y by a scan of all (PointSupport's contract: cell row c
+/// holds floor((y - origin) / h) = c), in increasing id order.
+class RowScan : public emp::PointSupport<2> {
+public:
+    RowScan(const emp::MaterialPoints<2>& P, const emp::Grid<2>& g) : P_(P), g_(g) {}
+    void forEachNode(int, const std::function<void(int, double)>&) const override {}
+    double halfWidth() const override { return 0; }
+    void pointsInRows(int lo, int hi, std::vector<int>& ids) const override
+    {
+        ids.clear();
+        for (int q = 0; q < static_cast<int>(P_.size()); ++q) {
+            const double c = std::floor((P_.x[q][1] - g_.origin[1]) / g_.h);
+            if (c >= lo && c <= hi) ids.push_back(q);
+        }
+    }
+
+private:
+    const emp::MaterialPoints<2>& P_;
+    const emp::Grid<2>& g_;
+};
+
+/// The erosion stage's neighbour list from the solver's rows (the points of the sources' box
+/// rows only) erodes the same points as the scan of every point: random points, some already
+/// eroded, with H high in a few places (inside, and at the grid's top edge in half the trials).
+TEST(Stability, ErosionFromTheRowsOfTheSourcesIsTheFullScan)
+{
+    emp::Grid<2> g;
+    const double h = 0.01;
+    g.resize(Vec<2>(-0.013, 0.007), h, {60, 90});
+    std::mt19937 rng(17);
+    std::uniform_real_distribution<double> ux(-0.01, 0.57), uy(0.01, 0.88), u(0.0, 1.0);
+    int eroded = 0;
+    for (int trial = 0; trial < 6; ++trial) {
+        emp::MaterialPoints<2> P;
+        for (int i = 0; i < 9000; ++i) P.add(Vec<2>(ux(rng), uy(rng)), Vec<2>::Zero(), 0.1, 1e-4, 0);
+        // Sources inside (the box's lower rows then lie inside the grid) and at the top edge.
+        std::uniform_real_distribution<double> inner(0.2, 0.6);
+        const Vec<2> hot[] = {Vec<2>(ux(rng), inner(rng)), Vec<2>(ux(rng), inner(rng)), Vec<2>(0.3, trial % 2 ? 0.87 : 0.7)};
+        for (std::size_t q = 0; q < P.size(); ++q) {
+            double H = 0.1 * u(rng);
+            for (const auto& c : hot) H += 4.0 * std::exp(-(P.x[q] - c).squaredNorm() / (2 * 0.02 * 0.02));
+            P.history[q] = H;
+            P.damage[q] = u(rng) < 0.05 ? 0.0 : 1.0;
+        }
+        const emp::ErosionSettings set{2.0 * 1.3 * h * 1.5, 2.0, 1.3 * h};  // Gc = alpha kappa 1.5
+        emp::MaterialPoints<2> Q = P;
+        emp::EigenErosion<2> all(set), fromRows(set);
+        const std::vector<emp::ElasticMaterial> materials{emp::ElasticMaterial::make(1e9, 0.25, 1000, false, 2, 0)};
+        const RowScan rows(Q, g);
+        const int n1 = all.apply(P, materials, 1, 0.0, 1);
+        const int n2 = fromRows.apply(Q, materials, 1, 0.0, 1, nullptr, nullptr, &rows, &g);
+        ASSERT_EQ(n1, n2) << "trial " << trial;
+        EXPECT_EQ(all.lastEroded(), fromRows.lastEroded()) << "trial " << trial;
+        EXPECT_EQ(all.candidatesLastStep(), fromRows.candidatesLastStep()) << "trial " << trial;
+        EXPECT_EQ(P.damage, Q.damage) << "trial " << trial;
+        eroded += n1;
+    }
+    EXPECT_GT(eroded, 100);  // the stage did erode
+}
+
 /// No spurious erosion in a vibrating bar that should not break, for alpha 0.5 to 4 and kappa
 /// 0.5 h to 3 h: with Gc 30 % above alpha kappa H_peak of the closed form (H_peak = psi+ at the
 /// peak uniaxial strain v0 / c) nothing erodes in one period; 30 % below, points do erode (the
