@@ -683,11 +683,13 @@ template <int D, class K> typename Solver<D, K>::St Solver<D, K>::stencilOf(int 
     return st;
 }
 
-template <int D, class K> const typename Solver<D, K>::St& Solver<D, K>::stepStencil(int p, St& scratch)
+template <int D, class K>
+const typename Solver<D, K>::St& Solver<D, K>::stepStencil(int p, St& scratch, int slot)
 {
     // P2G's stencil of p (the same numbers as stencilOf: the points have not moved since, and
-    // its remap slot is p's own), found in p's tile by its id; stencilOf where p was not binned.
-    const int k = schedule_.slotOf(p);
+    // its remap slot is p's own), in slot `slot` or found in p's tile by its id; stencilOf where
+    // p was not binned.
+    const int k = slot >= -1 ? slot : schedule_.slotOf(p);
     if (k >= 0 && static_cast<std::size_t>(k) < stencil_.size()) return stencil_[k];
     scratch = stencilOf(p);
     return scratch;
@@ -728,12 +730,14 @@ template <int D, class K> void Solver<D, K>::tractionForces()
 {
     // Traction on boundary points (Eq 28); few points, applied serially in a fixed order.
     auto& g = grid_;
+    tractionSlots_.clear();
     for (std::size_t c = 0; c < tractions_.size(); ++c) {
         const auto& tc = tractions_[c];
         const Vec<D> t = (rampFactor(time_, tc.rampTime) * tc.traction).head<D>();
         forEachTractionPoint(c, [&](int p, int k) {
+            tractionSlots_.push_back(schedule_.slotOf(p));  // (for accumulateExternalWork)
             St scratch;
-            const St& st = stepStencil(p, scratch);
+            const St& st = stepStencil(p, scratch, tractionSlots_.back());
             const Vec<D> f = t * (points_.volume[p] / tc.layer);
             st.forEach(g, [&](int I, double N, const Vec<D>&) { addNodeForce(I, N * f, 1 + static_cast<std::int64_t>(c), k); });
         });
@@ -814,12 +818,14 @@ template <int D, class K> void Solver<D, K>::accumulateExternalWork(double dt)
     const auto& g = grid_;
     workAtStart_[0] = tractionWork_;
     workAtStart_[1] = gravityWork_;
+    std::size_t next = 0;
     for (std::size_t c = 0; c < tractions_.size(); ++c) {
         const auto& tc = tractions_[c];
         const Vec<D> t = (rampFactor(time_, tc.rampTime) * tc.traction).head<D>();
         forEachTractionPoint(c, [&](int p, int) {
-            St scratch;
-            const St& st = stepStencil(p, scratch);
+            St scratch;  // (the points in tractionForces' order: their slots from there)
+            const St& st = stepStencil(p, scratch, next < tractionSlots_.size() ? tractionSlots_[next] : -2);
+            ++next;
             const Vec<D> f = t * (points_.volume[p] / tc.layer);
             st.forEach(g, [&](int I, double N, const Vec<D>&) {
                 tractionWork_ += dt * N * f.dot(g.velocity[I] - 0.5 * dt * g.force[I]);

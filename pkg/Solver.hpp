@@ -282,9 +282,10 @@ private:
     St stencilOf(int p);
     /// Maps point p's support onto the twins of this step (across the cracks, or its body's)
     /// in slot `slot` of Grid::remap.
-    /// In a step, after P2G: point p's stencil from P2G (Scheduler::slotOf), else stencilOf(p)
-    /// in `scratch`. Only until G2P moves the points.
-    const St& stepStencil(int p, St& scratch);
+    /// In a step, after P2G: point p's stencil from P2G (in `slot` when it is >= -1, else
+    /// found by Scheduler::slotOf), else stencilOf(p) in `scratch`. Only until G2P moves the
+    /// points.
+    const St& stepStencil(int p, St& scratch, int slot = -2);
     void mapSupport(St& st, int p, int slot);
     /// APIC's moment matrix diagonal of point p at its current position (Stencil::momentDiagonal).
     Vec<D> momentDiagonalAt(int p) const;
@@ -339,6 +340,7 @@ private:
     std::vector<St> stencil_;  ///< stencil_[k] is that of point schedule_.order()[k] in this step
     std::shared_ptr<Distribution<D>> dist_;
     GhostPoints<D> ghosts_;
+    std::vector<int> tractionSlots_;  ///< this step's slot of each traction point (tractionForces' order)
     std::vector<int> twinRegular_;  ///< the regular node of each crack twin (distributed)
     bool heldSetup_ = false;        ///< distributed at set-up (distributeSetup)
     int globalPoints_ = 0;          ///< the whole scene's points (distributed)
