@@ -750,6 +750,9 @@ template <int D, class K> void Solver<D, K>::Support::pointsInRows(int lo, int h
     // s holds the bases [s w, (s + 1) w). Each tile's slots (a strip's, without columns) are in
     // increasing id order (the binning is a stable sort), so their runs are merged one after the
     // other.
+    // The tiles of strips s0 .. s1 are one range of slots. Their points are marked by id in a
+    // bitmap and read back in increasing id order: linear in the rows' points (merging the
+    // tiles' sorted runs one after another grew with the square of the number of strips).
     const auto& sc = s_->schedule_;
     const auto& start = sc.tileStart();
     const int nc = sc.numColumns(), strips = (static_cast<int>(start.size()) - 1) / nc;
@@ -757,11 +760,24 @@ template <int D, class K> void Solver<D, K>::Support::pointsInRows(int lo, int h
     ids.clear();
     if (strips <= 0 || hi < lo) return;
     const int s0 = std::max(lo - (K::S - 1), 0) / w, s1 = std::min(std::max(hi, 0) / w, strips - 1);
+    if (s1 < s0) return;
     const int* order = sc.order().data();
-    for (int t = s0 * nc; t < (s1 + 1) * nc; ++t) {
-        const std::size_t middle = ids.size();
-        ids.insert(ids.end(), order + start[t], order + start[t + 1]);
-        std::inplace_merge(ids.begin(), ids.begin() + static_cast<std::ptrdiff_t>(middle), ids.end());
+    const int first = start[static_cast<std::size_t>(s0) * nc], last = start[static_cast<std::size_t>(s1 + 1) * nc];
+    if (first >= last) return;
+    auto& marks = s_->rowMarks_;
+    const std::size_t words = (static_cast<std::size_t>(sc.size()) + 63) / 64;
+    if (marks.size() != words) marks.assign(words, 0);
+    int lowest = INT_MAX, highest = -1;
+    for (int k = first; k < last; ++k) {
+        const int p = order[k];
+        marks[p >> 6] |= std::uint64_t(1) << (p & 63);
+        lowest = std::min(lowest, p);
+        highest = std::max(highest, p);
+    }
+    for (int word = lowest >> 6; word <= highest >> 6; ++word) {
+        std::uint64_t m = marks[word];
+        marks[word] = 0;
+        for (; m; m &= m - 1) ids.push_back(word * 64 + __builtin_ctzll(m));
     }
 }
 

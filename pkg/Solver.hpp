@@ -340,6 +340,7 @@ private:
     std::vector<St> stencil_;  ///< stencil_[k] is that of point schedule_.order()[k] in this step
     std::shared_ptr<Distribution<D>> dist_;
     GhostPoints<D> ghosts_;
+    std::vector<std::uint64_t> rowMarks_;  ///< Support::pointsInRows' bitmap by point id (zero between calls)
     std::vector<int> tractionSlots_;  ///< this step's slot of each traction point (tractionForces' order)
     std::vector<int> twinRegular_;  ///< the regular node of each crack twin (distributed)
     bool heldSetup_ = false;        ///< distributed at set-up (distributeSetup)
