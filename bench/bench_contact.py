@@ -1,9 +1,14 @@
 """What BodyContact costs per step (issue 16 item 7): a 2D block of N points under gravity with
-B YADE spheres resting on its top face, stepped with and without the contact. Run inside YADE,
-one thread:
+B YADE spheres on its top face, pressed into it at --approach m/s (default 0.5), stepped with
+and without the contact. Run inside YADE, one thread:
 
     PYTHONPATH=build/python yade -n -j 1 -x bench/bench_contact.py [--points 1e5] [--bodies 1000]
-                                                                   [--steps 20] [--rounds 5]
+                                                [--steps 20] [--rounds 5] [--approach 0.5]
+
+With --approach 0 (the scene of sessions before 2026-12-04) the spheres only rest: during the
+timed steps the block's top is still falling with them, the contact forces are about 1e-18 N,
+and writing the forces back to YADE is skipped for nearly every body, which understates the
+cost. Pressed in, the touching spheres receive real forces every step.
 
 Two identical scenes are built in turn (O.reset between them): (C) ForceResetter, MpmEngine,
 BodyContact, NewtonIntegrator; (N) the same without BodyContact (the spheres then fall through,
@@ -27,7 +32,7 @@ from yade.wrapper import ForceResetter, NewtonIntegrator
 import eigenmpm as em
 
 
-def scene(points, bodies, contact):
+def scene(points, bodies, contact, approach=0.5):
     O.reset()
     side = math.sqrt(points / 4.0)  # cells per side at ppc = 2 in a square block of 1 m
     h = 1.0 / side
@@ -40,6 +45,8 @@ def scene(points, bodies, contact):
     # points' half-width ends), so that they touch from the first step.
     top = float(np.max(np.array(mpm.solver.positions())[:, 1])) + 0.9 * mpm.solver.halfWidth
     ids = [O.bodies.append(utils.sphere(((i + 0.5) / bodies, top + r, 0), r)) for i in range(bodies)]
+    for i in ids:
+        O.bodies[i].state.vel = (0, -approach, 0)
     engines = [ForceResetter(), mpm]
     c = None
     if contact:
@@ -56,18 +63,19 @@ def main(argv):
     ap.add_argument("--bodies", type=int, default=1000)
     ap.add_argument("--steps", type=int, default=20)
     ap.add_argument("--rounds", type=int, default=5)
+    ap.add_argument("--approach", type=float, default=0.5, help="the spheres' initial speed into the block, m/s")
     a = ap.parse_args(argv)
     per = {True: [], False: []}
     split = []
     for k in range(a.rounds):
         for contact in ((True, False) if k % 2 == 0 else (False, True)):
-            mpm, c, _ = scene(int(a.points), a.bodies, contact)
+            mpm, c, _ = scene(int(a.points), a.bodies, contact, a.approach)
             O.run(20, True)  # the grid, and the spheres settle onto the block
             t0 = time.process_time()
             O.run(a.steps, True)
             per[contact].append((time.process_time() - t0) / a.steps)
             if contact:  # the exchange: refill the stage from YADE and hand the forces back
-                touching, read = c.pointsInContact(), c.core.numBodies
+                touching, read, force = c.pointsInContact(), c.core.numBodies, c.totalForce()
                 t1 = time.process_time()
                 for _ in range(a.steps):
                     c._load(mpm)
@@ -79,7 +87,8 @@ def main(argv):
     # machine, which the ratio of the medians is not.
     paired = [c / n for c, n in zip(per[True], per[False])]
     q1, q3 = np.percentile(paired, [25, 75])
-    print(f"points {int(a.points)}, bodies {a.bodies} ({read} read in full), points touching {touching}")
+    print(f"points {int(a.points)}, bodies {a.bodies} ({read} read in full), points touching {touching}, "
+          f"total force on the bodies in the last step {np.linalg.norm(force):.3g} N (approach {a.approach} m/s)")
     print(f"step without contact {1e3 * without:.2f} ms, with {1e3 * withC:.2f} ms: ratio {withC / without:.3f}; "
           f"median of the rounds' ratios {np.median(paired):.3f} (quartiles {q1:.3f}-{q3:.3f})")
     print(f"contact's extra per step {1e3 * (withC - without):.2f} ms, of which the exchange with YADE "
