@@ -747,12 +747,10 @@ template <int D, class K> void Solver<D, K>::tractionForces()
 template <int D, class K> void Solver<D, K>::Support::pointsInRows(int lo, int hi, std::vector<int>& ids) const
 {
     // A point of cell row c (along the last axis) has its base node in [c - (S - 1), c]: strip
-    // s holds the bases [s w, (s + 1) w). Each tile's slots (a strip's, without columns) are in
-    // increasing id order (the binning is a stable sort), so their runs are merged one after the
-    // other.
-    // The tiles of strips s0 .. s1 are one range of slots. Their points are marked by id in a
-    // bitmap and read back in increasing id order: linear in the rows' points (merging the
-    // tiles' sorted runs one after another grew with the square of the number of strips).
+    // s holds the bases [s w, (s + 1) w). The tiles of strips s0 .. s1 are one range of slots.
+    // Their points are marked by id in a bitmap and read back in increasing id order: linear in
+    // the rows' points (merging the tiles' sorted runs one after another grew with the square
+    // of the number of strips). Not thread-safe: the bitmap is the solver's.
     const auto& sc = s_->schedule_;
     const auto& start = sc.tileStart();
     const int nc = sc.numColumns(), strips = (static_cast<int>(start.size()) - 1) / nc;
