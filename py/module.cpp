@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "BodyContact.hpp"
+#include "CrackFront.hpp"
 #include "EigenErosion.hpp"
 #include "ErosionCalibration.hpp"
 #include "Errors.hpp"
@@ -129,6 +130,24 @@ template <int D> struct BindErosion {
         for (const auto& ev : e.events()) l.append(bp::make_tuple(ev.point, ev.step, ev.time));
         return l;
     }
+    /// The point ids of the events, in order (int64), without a tuple per event.
+    static np::ndarray eventPoints(const Er& e)
+    {
+        const auto& ev = e.events();
+        np::ndarray a = np::zeros(bp::make_tuple(static_cast<long>(ev.size())), np::dtype::get_builtin<std::int64_t>());
+        auto* out = reinterpret_cast<std::int64_t*>(a.get_data());
+        for (std::size_t k = 0; k < ev.size(); ++k) out[k] = ev[k].point;
+        return a;
+    }
+    /// The times of the events, in order, s.
+    static np::ndarray eventTimes(const Er& e)
+    {
+        const auto& ev = e.events();
+        np::ndarray a = zeros(static_cast<long>(ev.size()), 0);
+        auto* out = reinterpret_cast<double*>(a.get_data());
+        for (std::size_t k = 0; k < ev.size(); ++k) out[k] = ev[k].time;
+        return a;
+    }
     static void expose(const char* name)
     {
         bp::class_<Er, std::shared_ptr<Er>, boost::noncopyable>(name, bp::no_init)
@@ -144,7 +163,55 @@ template <int D> struct BindErosion {
             .add_property("erodedCount", &Er::erodedCount)
             .add_property("searchedLastStep", &Er::searchedLastStep)
             .add_property("candidatesLastStep", &Er::candidatesLastStep)
-            .def("events", &events);
+            .def("events", &events)
+            .def("eventPoints", &eventPoints, "The point of each event, in order (int64 array).")
+            .def("eventTimes", &eventTimes, "The time of each event, in order (float64 array, s).");
+    }
+};
+
+/// The crack diagnostics' searches (CrackFront.hpp) on numpy arrays of rows of 3 numbers.
+struct BindCrackFront {
+    static long rowsOf(const np::ndarray& a, const char* what)
+    {
+        require(a.get_nd() == 2 && a.shape(1) == 3, std::string(what) + " shape", bp::extract<std::string>(bp::str(bp::object(a).attr("shape")))(),
+                "(n, 3)");
+        return a.shape(0);
+    }
+    static np::ndarray mask(const std::vector<char>& m)
+    {
+        np::ndarray a = np::zeros(bp::make_tuple(static_cast<long>(m.size())), np::dtype::get_builtin<bool>());
+        auto* out = reinterpret_cast<bool*>(a.get_data());
+        for (std::size_t k = 0; k < m.size(); ++k) out[k] = m[k] != 0;
+        return a;
+    }
+    static np::ndarray mainCrack(const np::ndarray& x, bp::object origin, double R)
+    {
+        require(std::isfinite(R) && R > 0, "R (cell size, m)", R, "R > 0");
+        const long n = rowsOf(x, "x");
+        const std::vector<double> xs = readArray(x, n, 3, "x");
+        const Eigen::Vector3d o = toVec3(origin, "origin");
+        return mask(crackfront::mainCrack(xs.data(), n, o.data(), R));
+    }
+    static np::ndarray fartherWithin(const np::ndarray& xm, const np::ndarray& r, const np::ndarray& xr,
+                                     const np::ndarray& rr, double R, double R2)
+    {
+        require(std::isfinite(R) && R > 0 && R2 >= 0 && R2 <= R * R * (1 + 1e-12), "R2 (squared radius, m2)", R2,
+                "0 <= R2 <= R^2");
+        const long nm = rowsOf(xm, "xm"), nr = rowsOf(xr, "xr");
+        const std::vector<double> a = readArray(xm, nm, 3, "xm"), ra = readArray(r, nm, 1, "r");
+        const std::vector<double> b = readArray(xr, nr, 3, "xr"), rb = readArray(rr, nr, 1, "rr");
+        return mask(crackfront::fartherWithin(a.data(), ra.data(), nm, b.data(), rb.data(), nr, R, R2));
+    }
+    static void expose()
+    {
+        bp::def("crackMain", &mainCrack, (bp::arg("x"), bp::arg("origin"), bp::arg("R")),
+                "Which points x (n x 3) belong to the crack grown from origin: those whose cells of size R "
+                "(floor(x / R)) connect, through cells sharing a face, an edge or a corner, to the cell of the "
+                "point nearest origin (a bool array).");
+        bp::def("crackFartherWithin", &fartherWithin,
+                (bp::arg("xm"), bp::arg("r"), bp::arg("xr"), bp::arg("rr"), bp::arg("R"), bp::arg("R2")),
+                "For each row i of xr (n x 3): whether a row j of xm lies within squared distance R2 of it "
+                "with r[j] > rr[i] (r, rr: squared distances from the origin); R >= sqrt(R2) (a bool array).");
     }
 };
 
@@ -847,6 +914,7 @@ BOOST_PYTHON_MODULE(EMP_MODULE_NAME)
             "mixed field K_I = cos, K_II = sin of that angle (G = K_I^2 + K_II^2 over E'), instead of mode.");
     BindErosion<2>::expose("Erosion2");
     BindErosion<3>::expose("Erosion3");
+    BindCrackFront::expose();
     BindContact<2>::expose("Contact2");
     BindContact<3>::expose("Contact3");
     // One class per configuration (Configurations.hpp), named Solver<D><Kernel name>, and the

@@ -20,9 +20,6 @@ def linked(x, seed, radius):
     return label == label[seed]
 
 
-_DENSE_CELLS = 8.0  # _mainCrack labels a dense box of cells up to this many cells per point (+512)
-
-
 def _components(n, pairs):
     """Component label of each of n nodes joined by the rows of `pairs` (k x 2 node numbers)."""
     from scipy.sparse import coo_matrix
@@ -228,30 +225,30 @@ class EigenErosion(PyRunner):
         return self._tipsOf(mpm, self._crack(mpm))
 
     def _crack(self, mpm):
-        """What the crack diagnostics of one moment share: (events, the eroded points' positions
-        (projected with throughAxis), the origin, which of them form the main crack, their
-        positions unprojected), or None before the first erosion. Under mpiexec only the eroded
-        points' positions travel between the ranks (parallel.positionsOf), not every point's,
-        and every rank must call it."""
-        events = self.core.events() if self.core else []
-        if not events:
+        """What the crack diagnostics of one moment share: (the events' times, the eroded points'
+        positions (projected with throughAxis), the origin, which of them form the main crack,
+        their positions unprojected), or None before the first erosion. Under mpiexec only the
+        eroded points' positions travel between the ranks (parallel.positionsOf), not every
+        point's, and every rank must call it."""
+        ids = self.core.eventPoints() if self.core else np.zeros(0, np.int64)
+        if not len(ids):
             return None
-        raw = parallel.positionsOf(mpm, np.array([p for p, _, _ in events], dtype=np.int64))
+        raw = parallel.positionsOf(mpm, ids)
         x = self._inPlane(raw)
         origin = self._originPoint(x)
-        return events, x, origin, self._mainCrack(x, origin), raw
+        return self.core.eventTimes(), x, origin, self._mainCrack(x, origin), raw
 
     def _tipsOf(self, mpm, crack):
-        """tips() from a _crack() state. A k-d tree over the main crack's points proposes each
-        recent point's neighbours within R (and a hair beyond); the test itself is the squared
-        distance against R^2, as in the plain loop it replaces (tests/python/test_erosion.py). A
-        recent point with a farther neighbour is no tip; the others, few, are merged in order."""
+        """tips() from a _crack() state. Whether a recent point has a farther neighbour within R
+        is one C++ search over cells of size R (``_eigenmpm.crackFartherWithin``: the squared
+        distance against R^2, summed as numpy sums, as in the plain loop it replaces,
+        tests/python/test_erosion.py). A recent point with a farther neighbour is no tip; the
+        others, few, are merged in order."""
         if crack is None:
             return []
-        from scipy.spatial import cKDTree
-        events, x, origin, main, _ = crack
+        times, x, origin, main, _ = crack
         window = self.tipWindow if self.tipWindow else 50 * O.dt
-        recent = main & (np.array([t for _, _, t in events]) >= mpm.solver.time - window)
+        recent = main & (times >= mpm.solver.time - window)
         if not np.any(recent):
             return []
         R = 6.0 * self.core.kappa
@@ -259,10 +256,7 @@ class EigenErosion(PyRunner):
         xm, xr = x[main], x[recent]
         r = np.sum((xm - origin) ** 2, axis=1)
         rr = np.sum((xr - origin) ** 2, axis=1)
-        near = cKDTree(xr).sparse_distance_matrix(cKDTree(xm), R * (1.0 + 1e-9), output_type="ndarray")
-        i, j = near["i"].astype(np.int64), near["j"].astype(np.int64)
-        within = np.sum((xm[j] - xr[i]) ** 2, axis=1) <= R2
-        farther = np.bincount(i[within & (r[j] > rr[i])], minlength=len(xr)) > 0
+        farther = _eigenmpm.crackFartherWithin(xm, r, xr, rr, R, R2)
         order = np.argsort(-rr)
         tips = []
         for k in order[~farther[order]]:
@@ -323,26 +317,10 @@ class EigenErosion(PyRunner):
         those linked to the eroded point nearest the origin through eroded points in neighbouring
         cells of size R = 6 kappa (the 3^3 cells around a cell; in 2D z = 0 throughout). Erosion
         elsewhere (under a support, a second crack) is left out of the tips and the front, so that
-        it cannot make the front jump. The occupied cells are labelled by connected components
-        (scipy.ndimage.label on the cells' box, or, where that box is far larger than the points,
-        a k-d tree in the max norm joining the cells that touch)."""
-        R = 6.0 * self.core.kappa
-        cell = np.floor(x / R).astype(np.int64)
-        cell -= cell.min(axis=0)
-        shape = cell.max(axis=0) + 1
-        start = np.argmin(np.sum((x - origin) ** 2, axis=1))
-        if np.prod(shape.astype(float)) <= _DENSE_CELLS * (len(x) + 512):
-            from scipy import ndimage
-            occupied = np.zeros(tuple(shape), dtype=bool)
-            occupied[tuple(cell.T)] = True
-            label = ndimage.label(occupied, structure=np.ones((3, 3, 3), dtype=bool))[0][tuple(cell.T)]
-            return label == label[start]
-        from scipy.spatial import cKDTree
-        cells, cellOf = np.unique(cell, axis=0, return_inverse=True)
-        cellOf = cellOf.reshape(-1)
-        pairs = cKDTree(cells.astype(float)).query_pairs(1.0, p=np.inf, output_type="ndarray")
-        label = _components(len(cells), pairs)
-        return label[cellOf] == label[cellOf[start]]
+        it cannot make the front jump. The occupied cells are searched in C++
+        (``_eigenmpm.crackMain``: a flood fill over the occupied cells, kept in a hash map)."""
+        return _eigenmpm.crackMain(np.ascontiguousarray(x, dtype=float), np.asarray(origin, dtype=float),
+                                   6.0 * self.core.kappa)
 
     def record(self, mpm=None):
         mpm = mpm or self._mpm

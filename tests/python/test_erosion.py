@@ -327,6 +327,12 @@ class _Eroded:
     def events(self):
         return [(i, 1, self.now) for i in range(len(self.x))]
 
+    def eventPoints(self):
+        return np.arange(len(self.x), dtype=np.int64)
+
+    def eventTimes(self):
+        return np.full(len(self.x), self.now)
+
 
 def _throughThickness(branches, layers=16, h=0.5e-3):
     """Eroded points of a crack through a 3D plate 4 mm thick (along y, `layers` point layers
@@ -465,15 +471,29 @@ def _randomCrack(rng, dim, s, R):
     return x
 
 
-@pytest.mark.parametrize("dense", [True, False])
+def test_a_farther_neighbour_exactly_R_away_takes_the_tip():
+    """The tips' test is |x_j - x_i|^2 <= R^2, R = 6 kappa, at the threshold too: a recent point
+    whose only farther eroded point lies exactly R away is no tip; a hair farther, it is one
+    (numbers exact in binary)."""
+    kappa = 0.125  # R = 0.75
+    x = np.array([[1.0, 0.0, 0.0], [1.75, 0.0, 0.0]])
+    fake = _Eroded(x, kappa, now=1e-6)
+    fake.eventTimes = lambda: np.array([1e-6, 0.0])  # the farther point is old: never a tip itself
+    er = em.EigenErosion(Gc=1.0, kappa=kappa, tipWindow=3e-7, origin=(0.0, 0.0, 0.0))
+    er.core, er._mpm = fake, fake
+    assert er.tips() == []
+    fake.x = np.array([[1.0, 0.0, 0.0], [1.7501, 0.0, 0.0]])
+    assert [t.tolist() for t in er.tips()] == [[1.0, 0.0, 0.0]]
+
+
+@pytest.mark.parametrize("seed", [0, 1])
 @pytest.mark.parametrize("dim,axis", [(2, None), (3, None), (3, "y")])
-def test_crack_diagnostics_are_those_of_their_plain_forms(dim, axis, dense, monkeypatch):
-    """_mainCrack (connected components of the touching cells: labelled on a dense box of cells,
-    or, where that box would be large, joined by a k-d tree), tips() (k-d tree candidates) and
-    linked() (components of the pairs within a radius) give exactly what the plain searches they
-    replaced give, on 40 random cracks each (branches, strays, layers, borderline spacings)."""
-    monkeypatch.setattr(em.fracture, "_DENSE_CELLS", 8.0 if dense else 0.0)
-    rng = np.random.default_rng(7 + dim)
+def test_crack_diagnostics_are_those_of_their_plain_forms(dim, axis, seed):
+    """_mainCrack (the C++ flood fill over the occupied cells), tips() (the C++ search for a
+    farther neighbour within R) and linked() (components of the pairs within a radius) give
+    exactly what the plain searches they replaced give, on 40 random cracks each (branches,
+    strays, layers, borderline spacings)."""
+    rng = np.random.default_rng(7 + dim + 100 * seed)
     s = 0.25e-3
     kappa = 2.2 * s
     R = 6.0 * kappa
@@ -483,7 +503,7 @@ def test_crack_diagnostics_are_those_of_their_plain_forms(dim, axis, dense, monk
         times = now - rng.uniform(0.0, 2e-7, len(x)) * (rng.uniform(size=len(x)) < 0.3) - 1e-6 * (
             rng.uniform(size=len(x)) >= 0.3)
         fake = _Eroded(x, kappa, now)
-        fake.events = lambda t=times: [(i, 1, float(ti)) for i, ti in enumerate(t)]
+        fake.eventTimes = lambda t=times: t
         er = em.EigenErosion(Gc=1.0, kappa=kappa, throughAxis=axis, tipWindow=3e-7,
                              origin=(0.0, 0.0, 0.0))
         er.core, er._mpm = fake, fake
