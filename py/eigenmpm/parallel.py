@@ -12,6 +12,7 @@ ranks: every rank must call them, as every rank runs the same script. Arrays of 
 (``solver.positions()``, ...) hold this rank's points only; ``solver.globalIds()`` names them
 by their index in the one-process scene, and ``gather`` collects such arrays on every rank.
 """
+import functools
 import os
 
 import numpy as np
@@ -29,11 +30,14 @@ def _env(names, default):
     return default
 
 
+@functools.lru_cache(maxsize=None)
 def worldSize():
-    """Number of processes the launcher started (1 without mpiexec)."""
+    """Number of processes the launcher started (1 without mpiexec). Read once: the launcher
+    sets it before the process starts, and the MpmEngine asks at every step."""
     return _env(_SIZE, 1)
 
 
+@functools.lru_cache(maxsize=None)
 def rank():
     """This process's rank (0 without mpiexec)."""
     return _env(_RANK, 0)
