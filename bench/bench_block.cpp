@@ -218,7 +218,8 @@ template <int D> std::uint64_t checksum(const emp::MaterialPoints<D>& P)
     for (std::size_t p = 0; p < P.size(); ++p) {
         mix(P.x[p].data(), D);
         mix(P.v[p].data(), D);
-        mix(P.stress[p].data(), D * D);
+        const emp::Mat<D> stress = emp::full(P.stress[p]);  // (all D x D components, as before Sym2)
+        mix(stress.data(), D * D);
     }
     return h;
 }
@@ -249,6 +250,7 @@ template <int D, class K> emp::Solver<D, K> makeBlock(const std::array<int, D>& 
     std::uniform_real_distribution<double> uni(-1.0, 1.0);
     long total = 1;
     for (int d = 0; d < D; ++d) total *= n[d];
+    solver.reservePoints(static_cast<std::size_t>(total));  // (as the Python engine's addPoints does)
     for (long k = 0; k < total; ++k) {
         long r = k;
         Eigen::Vector3d x = Eigen::Vector3d::Zero(), v = Eigen::Vector3d::Zero();

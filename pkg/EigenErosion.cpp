@@ -156,9 +156,9 @@ int EigenErosion<D>::apply(MaterialPoints<D>& P, const std::vector<ElasticMateri
         if (erode[k]) eroding_.push_back(candidates_[k]);
     for (int p : eroding_) {
         const ElasticMaterial& m = materials[P.material[p]];
-        before_.push_back(P.stress[p]);
+        before_.push_back(full(P.stress[p]));
         P.damage[p] = 0.0;
-        P.stress[p] = lawResponse<D>(P.strain[p], m).sigmaMinus;  // g(0) sigma+ + sigma-
+        P.stress[p] = lawResponse<D>(full(P.strain[p]), m).sigmaMinus;  // g(0) sigma+ + sigma-
     }
     // The events and the dissipated energy (Eq 33), in the single-process order.
     const double perVolume = s.Gc / (2.0 * s.kappa);

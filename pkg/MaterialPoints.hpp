@@ -1,10 +1,12 @@
 // Material points as a struct of arrays: one contiguous array per quantity, indexed by point id.
 #pragma once
+#include <algorithm>
 #include <cstdint>
 #include <string>
 #include <vector>
 
 #include "ElasticMaterial.hpp"
+#include "PointTensor.hpp"
 
 namespace emp {
 
@@ -13,8 +15,8 @@ template <int D> struct MaterialPoints {
     std::vector<Vec<D>> v;        ///< velocity v^{n-1/2}
     std::vector<double> mass;     ///< m_p
     std::vector<double> volume;   ///< V_p (reference volume; small-strain theory)
-    std::vector<Mat<D>> strain;   ///< total small strain eps
-    std::vector<Mat<D>> stress;   ///< Cauchy stress sigma = g(c) sigma+ + sigma- (Eq 7)
+    std::vector<PointTensor<D>> strain;  ///< total small strain eps (2D: symmetric, PointTensor.hpp)
+    std::vector<PointTensor<D>> stress;  ///< Cauchy stress sigma = g(c) sigma+ + sigma- (Eq 7)
     std::vector<double> psiPlus;  ///< psi_e^+ (Eq 3)
     std::vector<double> psiMinus; ///< psi_e^- (Eq 4)
     std::vector<double> history;  ///< H = max psi+ over time (Eq 22)
@@ -75,14 +77,27 @@ template <int D> struct MaterialPoints {
     /// The length an array must have: every point's, or 0 for an optional one that is off.
     std::size_t expectedLength(const std::string& name) const { return carries(name) ? size() : 0; }
 
+    /// Room for `more` points to be added: the arrays grow once (to the exact size when they
+    /// must grow by more than their length, by doubling otherwise), not step by step, so that
+    /// a scene added in bulk leaves no freed buffers of the arrays' growth behind in the heap.
+    void reserveFor(std::size_t more)
+    {
+        const std::size_t need = size() + more;
+        if (need <= x.capacity()) return;
+        const std::size_t cap = std::max(need, 2 * size());
+        forEachArray([&](const char* name, auto& a) {
+            if (carries(name)) a.reserve(cap);
+        });
+    }
+
     void add(const Vec<D>& pos, const Vec<D>& vel, double m, double vol, int mat)
     {
         x.push_back(pos);
         v.push_back(vel);
         mass.push_back(m);
         volume.push_back(vol);
-        strain.push_back(Mat<D>::Zero());
-        stress.push_back(Mat<D>::Zero());
+        strain.push_back(PointTensor<D>(Mat<D>::Zero()));
+        stress.push_back(PointTensor<D>(Mat<D>::Zero()));
         psiPlus.push_back(0.0);
         psiMinus.push_back(0.0);
         history.push_back(0.0);

@@ -317,8 +317,11 @@ template <int D, class K> EMP_ALWAYS_INLINE void Solver<D, K>::updateStrain(int 
 {
     auto& P = points_;
     const Mat<D> L = velocityGradient(p, st);
-    Mat<D>& eps = P.strain[p];
-    eps += (0.5 * dt) * (L + L.transpose());  // strain increment (Eq 27)
+    auto& eps = P.strain[p];
+    if constexpr (D == 2)
+        eps += Mat<D>((0.5 * dt) * (L + L.transpose()));  // strain increment (Eq 27; symmetric: Sym2)
+    else
+        eps += (0.5 * dt) * (L + L.transpose());
 }
 
 template <int D, class K> EMP_ALWAYS_INLINE void Solver<D, K>::lawAt(int p)
@@ -328,8 +331,8 @@ template <int D, class K> EMP_ALWAYS_INLINE void Solver<D, K>::lawAt(int p)
     auto& P = points_;
     const ElasticMaterial& m = materials_[P.material[p]];
     withLaw(m.law, [&](auto law) {
-        const LawResponse<D> r = decltype(law)::template response<D>(P.strain[p], m);
-        P.stress[p] = P.damage[p] * r.sigmaPlus + r.sigmaMinus;
+        const LawResponse<D> r = decltype(law)::template response<D>(full(P.strain[p]), m);
+        store(P.stress[p], P.damage[p] * r.sigmaPlus + r.sigmaMinus);
         P.psiPlus[p] = r.psiPlus;
         P.psiMinus[p] = r.psiMinus;
         P.history[p] = std::max(P.history[p], r.psiPlus);
@@ -376,7 +379,7 @@ EMP_ALWAYS_INLINE void Solver<D, K>::lawOfRun2(const int* ids, int n)
     alignas(64) double sigma[4][stressRun], psiPlus[stressRun], psiMinus[stressRun];
     for (int i = 0; i < n; ++i) {  // the run's points in structure-of-arrays form
         const int p = ids[i];
-        const Mat<D>& E = P.strain[p];
+        const Sym2& E = P.strain[p];
         e[0][i] = E(0, 0);
         e[1][i] = E(0, 1);
         e[2][i] = E(1, 0);
@@ -392,7 +395,7 @@ EMP_ALWAYS_INLINE void Solver<D, K>::lawOfRun2(const int* ids, int n)
     });
     for (int i = 0; i < n; ++i) {
         const int p = ids[i];
-        P.stress[p] << sigma[0][i], sigma[1][i], sigma[2][i], sigma[3][i];
+        P.stress[p] = Sym2::of(sigma[0][i], sigma[1][i], sigma[2][i], sigma[3][i]);
         P.psiPlus[p] = psiPlus[i];
         P.psiMinus[p] = psiMinus[i];
         P.history[p] = std::max(P.history[p], psiPlus[i]);
@@ -489,8 +492,8 @@ EMP_ALWAYS_INLINE void Solver<D, K>::corotationalOfRun2(const int* ids, const St
             P.stress[p].setConstant(std::numeric_limits<double>::quiet_NaN());
             continue;
         }
-        P.strain[p] << e[0][i], e[1][i], e[2][i], e[3][i];
-        P.stress[p] << sigma[0][i], sigma[1][i], sigma[2][i], sigma[3][i];
+        P.strain[p] = Sym2::of(e[0][i], e[1][i], e[2][i], e[3][i]);
+        P.stress[p] = Sym2::of(sigma[0][i], sigma[1][i], sigma[2][i], sigma[3][i]);
         P.psiPlus[p] = psiPlus[i];
         P.psiMinus[p] = psiMinus[i];
         P.history[p] = std::max(P.history[p], psiPlus[i]);
@@ -611,7 +614,7 @@ EMP_ALWAYS_INLINE void Solver<D, K>::scatterInternalForce(int p, const St& st, c
     auto& g = grid_;
     const double volume = corotational ? points_.volume[p] * points_.deformationGradient[p].determinant()
                                        : points_.volume[p];
-    const Mat<D> vs = volume * points_.stress[p];
+    const Mat<D> vs = volume * full(points_.stress[p]);
     if (st.regular()) {  // (the same sums by rows: Stencil::forEachRowProjected)
         const Vec<D> fb = withGravity ? Vec<D>(points_.mass[p] * gravity) : Vec<D>::Zero();
         st.forEachRowProjected(g, vs, [&](int I0, const double* N, const double* t) EMP_LAMBDA_INLINE {
@@ -717,10 +720,10 @@ template <int D, class K> void Solver<D, K>::erode(double dt, int nThreads)
         const St& st = stepStencil(p, scratch);
         double volume = points_.volume[p];
         if (corotational) {  // erosion set sigma- of the co-rotated strain: rotate it back
-            points_.stress[p] = spatialStress(p, points_.stress[p]);
+            points_.stress[p] = spatialStress(p, full(points_.stress[p]));
             volume *= points_.deformationGradient[p].determinant();
         }
-        const Mat<D> dvs = volume * (points_.stress[p] - before[e]);
+        const Mat<D> dvs = volume * (full(points_.stress[p]) - before[e]);
         const std::int64_t id = dist_ ? points_.globalId[p] : p;
         st.forEachProjected(g, dvs, [&](int I, double, const Vec<D>& dvsGrad) { addNodeForce(I, -dvsGrad, 0, id); });
     }
@@ -889,7 +892,7 @@ template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThre
         P.x[p] = x;
         acc.lo = acc.lo.cwiseMin(x);
         acc.hi = acc.hi.cwiseMax(x);
-        acc.sum += v.sum() + x.sum() + P.stress[p].sum();
+        acc.sum += v.sum() + x.sum() + full(P.stress[p]).sum();
         acc.vmax2 = std::max(acc.vmax2, v.squaredNorm());
     };
     const auto flipInline = [&](int k, Check& acc) EMP_LAMBDA_INLINE {

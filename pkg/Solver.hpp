@@ -70,6 +70,9 @@ public:
     int addMaterial(double E, double nu, double rho, bool planeStress, int law);
     /// Appends a point; returns its id. Velocity in m/s, volume in m^D (2D: area x thickness).
     int addPoint(const Eigen::Vector3d& x, const Eigen::Vector3d& v, double volume, int material);
+    /// Room for `more` points about to be added (addPoints in bulk): optional, it only saves
+    /// the arrays' step-by-step growth and the freed buffers it leaves in the heap.
+    void reservePoints(std::size_t more) { points_.reserveFor(more); }
     /// Grid covering the box [lo, hi] (snapped outwards to multiples of h). Without it the grid
     /// covers the points' bounding box plus `padding` cells, when the first step runs.
     void setDomain(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi);

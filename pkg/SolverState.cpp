@@ -1,6 +1,7 @@
 // Saving and restoring a solver's state (Solver::saveState / loadState): the format is a header
 // (format name, version, dimension, kernel) and named sections, each checked on reading.
 #include <sstream>
+#include <type_traits>
 
 #include "Archive.hpp"
 #include "Laws.hpp"
@@ -10,11 +11,28 @@ namespace emp {
 
 namespace {
 const char* kFormat = "EigenMPM solver state";
-constexpr std::uint32_t kVersion = 7;  // 2: transfer, stress update, energy diagnostics; 3: contact work, crack-face contact;
+constexpr std::uint32_t kVersion = 8;  // 2: transfer, stress update, energy diagnostics; 3: contact work, crack-face contact;
                                        // 4: bodies in one grid (point body ids, their friction); 5: a rank's part
                                        // of a distributed run (its flag, point ids, the ranks' strips); 6: the
                                        // points' reference positions of a run distributed at set-up; 7: the
-                                       // scheduler's columns, and a distributed run's columns of ranks
+                                       // scheduler's columns, and a distributed run's columns of ranks; 8: a 2D
+                                       // point's strain and stress as symmetric tensors (three numbers)
+}  // namespace
+
+namespace {
+/// A point array as saved; before version 8 a 2D strain or stress was a full 2 x 2 matrix.
+template <class T> void readPointArray(ArchiveReader& r, int version, std::vector<T>& a)
+{
+    if constexpr (std::is_same<T, Sym2>::value) {
+        if (version < 8) {
+            std::vector<Mat<2>> full;
+            r.array(full);
+            a.assign(full.begin(), full.end());  // (their symmetric parts: the tensors themselves)
+            return;
+        }
+    }
+    r.array(a);
+}
 }  // namespace
 
 StateHeader readStateHeader(std::istream& is)
@@ -207,7 +225,7 @@ template <int D, class K> std::shared_ptr<Solver<D, K>> Solver<D, K>::loadState(
         if (h.version < 5 && std::string(name) == "globalId") return;      // (and a rank's part with 5)
         if (h.version < 6 && std::string(name) == "reference") return;     // (and its reference positions with 6)
         r.expect(name);
-        r.array(a);
+        readPointArray(r, h.version, a);
         if (a.size() != s->points_.expectedLength(name))
             r.fail(std::string("a point array '") + name + "' of another length");
     });

@@ -493,6 +493,7 @@ template <class Sv> struct Bind {
         const auto V = readArray(vol, n, 1, "volumes");
         if (total >= 0) s.holdPoints(offset, static_cast<int>(n), total);
         const int first = total >= 0 ? s.numGlobalPoints() - total + offset : static_cast<int>(s.points().size());
+        s.reservePoints(static_cast<std::size_t>(n));
         for (long i = 0; i < n; ++i)
             s.addPoint(Eigen::Vector3d(x[3 * i], x[3 * i + 1], x[3 * i + 2]),
                        Eigen::Vector3d(v[3 * i], v[3 * i + 1], v[3 * i + 2]), V[i], material);
@@ -558,7 +559,7 @@ template <class Sv> struct Bind {
         np::ndarray a = zeros(n, 3, 3);
         double* out = reinterpret_cast<double*>(a.get_data());
         for (long p = 0; p < n; ++p) {
-            Mat<D> t = stress ? P.stress[p] : P.strain[p];
+            Mat<D> t = stress ? full(P.stress[p]) : full(P.strain[p]);
             if (!stress && P.deformation) {  // the co-rotated strain U - I, turned to the spatial frame
                 Mat<D> R, U;
                 if (polarDecomposition(P.deformationGradient[p], R, U)) t = R * t * R.transpose();
@@ -569,7 +570,7 @@ template <class Sv> struct Bind {
                 const ElasticMaterial& m = s.materials()[P.material[p]];
                 double zz = 0;
                 if (stress)
-                    withLaw(m.law, [&](auto law) { zz = decltype(law)::outOfPlaneStress(P.strain[p], P.damage[p], m); });
+                    withLaw(m.law, [&](auto law) { zz = decltype(law)::outOfPlaneStress(full(P.strain[p]), P.damage[p], m); });
                 else if (m.planeStress)
                     zz = -m.nu / (1.0 - m.nu) * P.strain[p].trace();
                 out[9 * p + 8] = zz;

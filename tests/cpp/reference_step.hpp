@@ -117,9 +117,9 @@ template <int D, class K> void referenceStep(ReferenceScene<D, K>& s, double dt)
             const bool empty = K::gradientJumpsAtNodes && !(g.mass[n.I] > 0);
             L += (empty ? P.v[p] : g.velocity[n.I]) * n.grad.transpose();
         }
-        P.strain[p] += 0.5 * dt * (L + L.transpose());
-        const auto r = emp::lawResponse<D>(P.strain[p], s.materials[P.material[p]]);
-        P.stress[p] = P.damage[p] * r.sigmaPlus + r.sigmaMinus;
+        P.strain[p] += Mat<D>(0.5 * dt * (L + L.transpose()));
+        const auto r = emp::lawResponse<D>(emp::full(P.strain[p]), s.materials[P.material[p]]);
+        emp::store(P.stress[p], P.damage[p] * r.sigmaPlus + r.sigmaMinus);
         P.psiPlus[p] = r.psiPlus;
         P.psiMinus[p] = r.psiMinus;
         P.history[p] = std::max(P.history[p], r.psiPlus);
@@ -140,13 +140,13 @@ template <int D, class K> void referenceStep(ReferenceScene<D, K>& s, double dt)
         }
         for (int p : eroding) {
             P.damage[p] = 0.0;
-            P.stress[p] = emp::lawResponse<D>(P.strain[p], s.materials[P.material[p]]).sigmaMinus;
+            P.stress[p] = emp::lawResponse<D>(emp::full(P.strain[p]), s.materials[P.material[p]]).sigmaMinus;
             s.dissipated += e.Gc / (2.0 * e.kappa) * P.volume[p];  // Eq 33
         }
     }
     // (5) Internal and body force (Eqs 13-14), traction (Eq 28), conditions on the forces.
     for (int p = 0; p < np; ++p)
-        for (const auto& n : sup[p]) g.force[n.I] += n.N * P.mass[p] * s.gravity - P.volume[p] * P.stress[p] * n.grad;
+        for (const auto& n : sup[p]) g.force[n.I] += n.N * P.mass[p] * s.gravity - P.volume[p] * emp::full(P.stress[p]) * n.grad;
     for (const auto& t : s.tractions)
         for (int p : t.points) {
             const Vec<D> tr = (emp::rampFactor(s.time, t.rampTime) * t.traction).template head<D>();

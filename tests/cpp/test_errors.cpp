@@ -191,7 +191,9 @@ template <int D, class K> Solver<D, K> isolatedPoints()
 template <int D, class K> void checkNonFiniteStrain()
 {
     auto s = isolatedPoints<D, K>();
-    s.points().strain[2](0, 0) = std::numeric_limits<double>::quiet_NaN();
+    emp::Mat<D> eps = emp::full(s.points().strain[2]);
+    eps(0, 0) = std::numeric_limits<double>::quiet_NaN();
+    s.points().strain[2] = eps;
     const std::string m = messageOf<SimulationError>([&] { s.step(0.5 * s.criticalTimeStep(), 2); });
     EXPECT_MESSAGE_HAS(m, "non-finite");
     EXPECT_MESSAGE_HAS(m, "step 1");

@@ -1,6 +1,7 @@
 // Saving and restoring a solver (Solver::saveState / loadState): continuing a restored solver
 // gives bitwise the results of the one that was saved, in every configuration, with a crack
 // and while eroding, on 1 and 2 threads; archives that cannot be restored are refused loudly.
+#include <cstring>
 #include <sstream>
 
 #include "test_helpers.hpp"
@@ -57,7 +58,7 @@ template <class Sv> void expectSame(const Sv& a, const Sv& b)
     for (std::size_t p = 0; p < P.size(); ++p) {
         ASSERT_EQ(P.x[p], Q.x[p]) << "point " << p;
         ASSERT_EQ(P.v[p], Q.v[p]) << "point " << p;
-        ASSERT_EQ(P.stress[p], Q.stress[p]) << "point " << p;
+        ASSERT_EQ(emp::full(P.stress[p]), emp::full(Q.stress[p])) << "point " << p;
         ASSERT_EQ(P.history[p], Q.history[p]) << "point " << p;
         ASSERT_EQ(P.damage[p], Q.damage[p]) << "point " << p;
     }
@@ -138,6 +139,64 @@ TYPED_TEST(StateTest, ArchivesThatCannotBeRestoredAreRefused)
         const std::string m = emptest::messageOf<emp::SimulationError>([&] { emp::Solver<2, K>::loadState(s2); });
         EXPECT_TRUE(emptest::contains(m, "read as a 2D")) << m;
     }
+}
+
+/// The bytes of the named point array `name` in a saved state: the offset of its element count
+/// (after the tag, a 64-bit length and the name's characters).
+std::size_t arrayAt(const std::string& bytes, const std::string& name)
+{
+    std::string tag(8, '\0');
+    const std::uint64_t n = name.size();
+    std::memcpy(&tag[0], &n, 8);
+    tag += name;
+    const std::size_t at = bytes.find(tag);
+    EXPECT_NE(at, std::string::npos) << name;
+    return at + tag.size();
+}
+
+/// The state as version 7 wrote it: a 2D point's strain and stress as full 2 x 2 matrices.
+std::string asVersion7(std::string bytes)
+{
+    const std::size_t versionAt = 8 + std::string("EigenMPM solver state").size();
+    const std::uint32_t seven = 7;
+    std::memcpy(&bytes[versionAt], &seven, 4);
+    for (const char* name : {"strain", "stress"}) {
+        const std::size_t at = arrayAt(bytes, name);
+        std::uint64_t n;
+        std::memcpy(&n, &bytes[at], 8);
+        std::string full;
+        for (std::uint64_t p = 0; p < n; ++p) {
+            emp::Sym2 t;
+            std::memcpy(&t, &bytes[at + 8 + 24 * p], 24);
+            const emp::Mat<2> m = t.mat();
+            full.append(reinterpret_cast<const char*>(m.data()), 32);
+        }
+        bytes.replace(at + 8, 24 * n, full);
+    }
+    return bytes;
+}
+
+TEST(StateTest2D, AStateOfVersion7IsRestoredWithItsFullTensors)
+{
+    // Version 8 stores a 2D point's strain and stress as three numbers (PointTensor.hpp); a
+    // state saved before reads its full matrices, whose symmetric parts are the tensors.
+    using Sv = emp::Solver<2, emp::GimpKernel>;
+    auto a = scene<2, emp::GimpKernel>(5);
+    const double dt = 0.5 * a->criticalTimeStep();
+    for (int k = 0; k < 20; ++k) a->step(dt, 1);
+    std::stringstream archive;
+    a->saveState(archive);
+    std::stringstream old(asVersion7(archive.str()));
+    EXPECT_NE(old.str().size(), archive.str().size());
+    auto b = Sv::loadState(old);
+    for (std::size_t p = 0; p < a->points().size(); ++p)
+        ASSERT_EQ(emp::full(a->points().strain[p]), emp::full(b->points().strain[p])) << "point " << p;
+    expectSame(*a, *b);
+    for (int k = 0; k < 10; ++k) {
+        a->step(dt, 1);
+        b->step(dt, 2);
+    }
+    expectSame(*a, *b);
 }
 
 /// A condition with no saved form.
