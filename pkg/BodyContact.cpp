@@ -303,7 +303,7 @@ template <int D> void BodyContact<D>::afterForces(GridState<D>& s)
             n /= len;
         }
         ++pointsInContact;
-        const double m = P.mass[p];
+        const double m = P.mass(p);
         s.support->forEachNode(p, [&](int I, double N) {
             if (N > 0) touches_.push_back(Touch{k, I, N * m, N * m * n, N * m * sp});
         });

@@ -455,7 +455,7 @@ void Distribution<D>::ghostsBlocks(const MaterialPoints<D>& P, const Grid<D>& g,
             if (x0 >= box[i].lo0 && x0 <= box[i].hi0 && xL >= box[i].loL && xL <= box[i].hiL) {
                 to[i].put(P.globalId[p]);
                 to[i].put(P.x[p]);
-                to[i].put(P.mass[p]);
+                to[i].put(P.mass(p));
                 to[i].put(P.history[p]);
                 to[i].put(P.damage[p]);
             }
@@ -488,7 +488,7 @@ void Distribution<D>::ghosts(const MaterialPoints<D>& P, const Grid<D>& g, doubl
             if (b) {
                 b->put(P.globalId[p]);
                 b->put(P.x[p]);
-                b->put(P.mass[p]);
+                b->put(P.mass(p));
                 b->put(P.history[p]);
                 b->put(P.damage[p]);
             }

@@ -27,7 +27,7 @@ template <int D> struct Neighbourhood {
     int n;
     int total() const { return n + (G ? static_cast<int>(G->size()) : 0); }
     const Vec<D>& operator[](int q) const { return q < n ? P.x[q] : G->x[q - n]; }
-    double mass(int q) const { return q < n ? P.mass[q] : G->mass[q - n]; }
+    double mass(int q) const { return q < n ? P.mass(q) : G->mass[q - n]; }
     double history(int q) const { return q < n ? P.history[q] : G->history[q - n]; }
     double damage(int q) const { return q < n ? P.damage[q] : G->damage[q - n]; }
     /// q in the single-process order: by globalId in a distributed run, else by index.
@@ -201,8 +201,8 @@ std::vector<double> EigenErosion<D>::energyReleaseRateBruteForce(const MaterialP
         double mh = 0, m = 0;
         for (std::size_t q = 0; q < P.size(); ++q)
             if (P.damage[q] > 0 && (P.x[q] - P.x[p]).squaredNorm() <= r2) {
-                mh += P.mass[q] * P.history[q];
-                m += P.mass[q];
+                mh += P.mass(q) * P.history[q];
+                m += P.mass(q);
             }
         out.push_back(m > 0 ? settings_.alpha * settings_.kappa * mh / m : 0.0);
     }

@@ -13,7 +13,6 @@ namespace emp {
 template <int D> struct MaterialPoints {
     std::vector<Vec<D>> x;        ///< position
     std::vector<Vec<D>> v;        ///< velocity v^{n-1/2}
-    std::vector<double> mass;     ///< m_p
     std::vector<double> volume;   ///< V_p (reference volume; small-strain theory)
     std::vector<PointTensor<D>> strain;  ///< total small strain eps (2D: symmetric, PointTensor.hpp)
     std::vector<PointTensor<D>> stress;  ///< Cauchy stress sigma = g(c) sigma+ + sigma- (Eq 7)
@@ -40,7 +39,20 @@ template <int D> struct MaterialPoints {
     std::vector<Vec<D>> reference;
     bool affine = false, deformation = false, bodies = false, distributed = false, referenced = false;  ///< which optional arrays the points carry
 
+    /// The density of each material, by material id (kept by the Solver; not per point).
+    std::vector<double> density;
+
     std::size_t size() const { return x.size(); }
+    /// m_p = rho V_p: computed, not stored (8 B per point less; bitwise the mass stored before,
+    /// which was rho V_p as the point was added).
+    double mass(std::size_t p) const { return density[material[p]] * volume[p]; }
+    /// Every point's mass, in id order.
+    std::vector<double> masses() const
+    {
+        std::vector<double> m(size());
+        for (std::size_t p = 0; p < size(); ++p) m[p] = mass(p);
+        return m;
+    }
 
     /// Calls f(name, array) for every per-point array: the state a restart needs. A new field
     /// is added here and in add(); saving and loading then follow.
@@ -48,7 +60,6 @@ template <int D> struct MaterialPoints {
     {
         f("x", x);
         f("v", v);
-        f("mass", mass);
         f("volume", volume);
         f("strain", strain);
         f("stress", stress);
@@ -90,11 +101,10 @@ template <int D> struct MaterialPoints {
         });
     }
 
-    void add(const Vec<D>& pos, const Vec<D>& vel, double m, double vol, int mat)
+    void add(const Vec<D>& pos, const Vec<D>& vel, double vol, int mat)
     {
         x.push_back(pos);
         v.push_back(vel);
-        mass.push_back(m);
         volume.push_back(vol);
         strain.push_back(PointTensor<D>(Mat<D>::Zero()));
         stress.push_back(PointTensor<D>(Mat<D>::Zero()));

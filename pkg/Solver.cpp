@@ -191,7 +191,7 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
             St& st = stencil_[k];
             if constexpr (!decltype(computed)::value) st.compute(P.x[p], g, half);
             if (mapping && st.overlaps(markedLo_, markedHi_)) mapSupport(st, p, k);
-            const double mp = P.mass[p];
+            const double mp = P.mass(p);
             const Vec<D> mv = mp * P.v[p];
             if constexpr (!decltype(apic)::value) {
                 if (st.regular()) {  // (the same sums by rows: Stencil::forEachRow)
@@ -616,7 +616,7 @@ EMP_ALWAYS_INLINE void Solver<D, K>::scatterInternalForce(int p, const St& st, c
                                        : points_.volume[p];
     const Mat<D> vs = volume * full(points_.stress[p]);
     if (st.regular()) {  // (the same sums by rows: Stencil::forEachRowProjected)
-        const Vec<D> fb = withGravity ? Vec<D>(points_.mass[p] * gravity) : Vec<D>::Zero();
+        const Vec<D> fb = withGravity ? Vec<D>(points_.mass(p) * gravity) : Vec<D>::Zero();
         st.forEachRowProjected(g, vs, [&](int I0, const double* N, const double* t) EMP_LAMBDA_INLINE {
             double* f = g.force[I0].data();
             for (int e = 0; e < S * D; ++e) {
@@ -629,7 +629,7 @@ EMP_ALWAYS_INLINE void Solver<D, K>::scatterInternalForce(int p, const St& st, c
         return;
     }
     if constexpr (withGravity) {
-        const Vec<D> fb = points_.mass[p] * gravity;
+        const Vec<D> fb = points_.mass(p) * gravity;
         st.forEachProjected(g, vs, [&](int I, double N, const Vec<D>& vsGrad) { g.force[I] += N * fb - vsGrad; });
     } else {
         st.forEachProjected(g, vs, [&](int I, double, const Vec<D>& vsGrad) { g.force[I] -= vsGrad; });
@@ -929,7 +929,7 @@ template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThre
             });
         }
         const Vec<D> v = P.v[p] + dt * a;
-        acc.kinetic += 0.5 * P.mass[p] * P.v[p].dot(v);
+        acc.kinetic += 0.5 * P.mass(p) * P.v[p].dot(v);
         finish(p, v, vg, acc);
     };
     // 2D: the FLIP body left to GCC's inliner, as before session 21 (forcing it inline made no
@@ -949,7 +949,7 @@ template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThre
         // P2G's Cu = h C_old.
         double affine = 0;
         for (int d = 0; d < D; ++d) affine += P.affineVelocity[p].col(d).dot(Bu.col(d));
-        acc.kinetic += 0.5 * P.mass[p] * (P.v[p].dot(vg) + affine);
+        acc.kinetic += 0.5 * P.mass(p) * (P.v[p].dot(vg) + affine);
         P.affineVelocity[p] = g.h * Bu;
         finish(p, vg, vg, acc);
     };
@@ -1073,6 +1073,7 @@ template <int D, class K>
 int Solver<D, K>::addMaterial(double E, double nu, double rho, bool planeStress, int law)
 {
     materials_.push_back(ElasticMaterial::make(E, nu, rho, planeStress, D, law));
+    points_.density.push_back(materials_.back().rho);
     return static_cast<int>(materials_.size()) - 1;
 }
 
@@ -1104,7 +1105,7 @@ int Solver<D, K>::addPoint(const Eigen::Vector3d& x, const Eigen::Vector3d& v, d
                                       "the first step or give a larger domain");
         }
     }
-    points_.add(x.head<D>(), v.head<D>(), materials_[material].rho * volume, volume, material);
+    points_.add(x.head<D>(), v.head<D>(), volume, material);  // (mass rho V: MaterialPoints::mass)
     if (held) {
         points_.globalId.push_back(id);
         ++nextId_;
@@ -1190,7 +1191,7 @@ template <int D, class K> void Solver<D, K>::initialize()
                               "to its edge (the shape function needs nodes around it); "
                               "enlarge the domain by at least " + std::to_string(S - 1) + " h");
     if (!held) {
-        for (double m : points_.mass) meanMass += m;
+        for (std::size_t p = 0; p < points_.size(); ++p) meanMass += points_.mass(p);
         if (points_.size() > 0) meanMass /= points_.size();
     }
     massCutoffAbs_ = settings_.massCutoff * meanMass;
@@ -1302,7 +1303,7 @@ template <int D, class V> V overRanks(const std::shared_ptr<Distribution<D>>& di
 template <int D, class K> double Solver<D, K>::kineticEnergy() const
 {
     double e = 0;
-    for (std::size_t p = 0; p < points_.size(); ++p) e += 0.5 * points_.mass[p] * points_.v[p].squaredNorm();
+    for (std::size_t p = 0; p < points_.size(); ++p) e += 0.5 * points_.mass(p) * points_.v[p].squaredNorm();
     return overRanks(dist_, e);
 }
 
@@ -1324,7 +1325,7 @@ template <int D, class K> double Solver<D, K>::externalWork() const
 template <int D, class K> Eigen::Vector3d Solver<D, K>::linearMomentum() const
 {
     Eigen::Vector3d m = Eigen::Vector3d::Zero();
-    for (std::size_t p = 0; p < points_.size(); ++p) m.head<D>() += points_.mass[p] * points_.v[p];
+    for (std::size_t p = 0; p < points_.size(); ++p) m.head<D>() += points_.mass(p) * points_.v[p];
     return overRanks(dist_, m);
 }
 
@@ -1342,7 +1343,7 @@ template <int D, class K> Eigen::Vector3d Solver<D, K>::angularMomentum() const
             B.topLeftCorner<D, D>() = points_.affineVelocity[p];
             lp += Eigen::Vector3d(B(2, 1) - B(1, 2), B(0, 2) - B(2, 0), B(1, 0) - B(0, 1));
         }
-        l += points_.mass[p] * lp;
+        l += points_.mass(p) * lp;
     }
     return overRanks(dist_, l);
 }

@@ -44,7 +44,7 @@ template <int D, class K> void Solver<D, K>::bodyGradients()
     for (std::size_t k = 0; k < order.size(); ++k) {
         const St& st = stencil_[k];
         if (st.remap < 0) continue;
-        const double m = points_.mass[order[k]];
+        const double m = points_.mass(order[k]);
         st.forEach(grid_, [&](int I, double, const Vec<D>& grad) { G[I] += m * grad; });
     }
 }

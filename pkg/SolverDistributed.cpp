@@ -252,7 +252,7 @@ template <int D, class K> void Solver<D, K>::initializeHeld(Vec<D>& lo, Vec<D>& 
         if (run.second == dist_->rank()) {
             part = sum;
             const int first = runs[next + 2], len = runs[next + 1];
-            for (int p = first; p < first + len; ++p) part += points_.mass[p];
+            for (int p = first; p < first + len; ++p) part += points_.mass(p);
             next += 3;
         }
         t.sum(&part, 1);  // (the others add 0: exact)

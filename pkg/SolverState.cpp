@@ -16,7 +16,8 @@ constexpr std::uint32_t kVersion = 8;  // 2: transfer, stress update, energy dia
                                        // of a distributed run (its flag, point ids, the ranks' strips); 6: the
                                        // points' reference positions of a run distributed at set-up; 7: the
                                        // scheduler's columns, and a distributed run's columns of ranks; 8: a 2D
-                                       // point's strain and stress as symmetric tensors (three numbers)
+                                       // point's strain and stress as symmetric tensors (three numbers), and
+                                       // no mass array (a point's mass is rho V)
 }  // namespace
 
 namespace {
@@ -212,6 +213,7 @@ template <int D, class K> std::shared_ptr<Solver<D, K>> Solver<D, K>::loadState(
 
     r.expect("materials");
     r.array(s->materials_);
+    for (const auto& m : s->materials_) s->points_.density.push_back(m.rho);
     for (auto& m : s->materials_) {
         const std::string law = r.string();
         m.law = lawIndex(law);
@@ -224,6 +226,11 @@ template <int D, class K> std::shared_ptr<Solver<D, K>> Solver<D, K>::loadState(
         if (h.version < 4 && std::string(name) == "body") return;          // (and the bodies with 4)
         if (h.version < 5 && std::string(name) == "globalId") return;      // (and a rank's part with 5)
         if (h.version < 6 && std::string(name) == "reference") return;     // (and its reference positions with 6)
+        if (h.version < 8 && std::string(name) == "volume") {  // (a mass array until 8: rho V, now computed)
+            r.expect("mass");
+            std::vector<double> mass;
+            r.array(mass);
+        }
         r.expect(name);
         readPointArray(r, h.version, a);
         if (a.size() != s->points_.expectedLength(name))

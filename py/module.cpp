@@ -632,7 +632,7 @@ template <class Sv> struct Bind {
         return a;
     }
     static np::ndarray volume(const Sv& s) { return scalars(s.points().volume); }
-    static np::ndarray mass(const Sv& s) { return scalars(s.points().mass); }
+    static np::ndarray mass(const Sv& s) { return scalars(s.points().masses()); }
     static np::ndarray material(const Sv& s) { return scalars(s.points().material); }
 
     static void setVelocities(Sv& s, np::ndarray vel)

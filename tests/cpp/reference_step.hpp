@@ -99,8 +99,8 @@ template <int D, class K> void referenceStep(ReferenceScene<D, K>& s, double dt)
     // (1) P2G: nodal mass (Eq 12) and momentum (Eq 25).
     for (int p = 0; p < np; ++p)
         for (const auto& n : sup[p]) {
-            g.mass[n.I] += n.N * P.mass[p];
-            g.momentum[n.I] += n.N * (P.mass[p] * P.v[p]);
+            g.mass[n.I] += n.N * P.mass(p);
+            g.momentum[n.I] += n.N * (P.mass(p) * P.v[p]);
         }
     // (2) Nodal velocity (Eq 26); 1/m only above the small-mass cut-off.
     for (int I = 0; I < nn; ++I) {
@@ -133,8 +133,8 @@ template <int D, class K> void referenceStep(ReferenceScene<D, K>& s, double dt)
             double mh = 0, m = 0;
             for (int q = 0; q < np; ++q)
                 if (P.damage[q] > 0 && (P.x[q] - P.x[p]).squaredNorm() <= e.kappa * e.kappa) {
-                    mh += P.mass[q] * P.history[q];
-                    m += P.mass[q];
+                    mh += P.mass(q) * P.history[q];
+                    m += P.mass(q);
                 }
             if (e.alpha * e.kappa * mh / m >= e.Gc) eroding.push_back(p);
         }
@@ -146,7 +146,7 @@ template <int D, class K> void referenceStep(ReferenceScene<D, K>& s, double dt)
     }
     // (5) Internal and body force (Eqs 13-14), traction (Eq 28), conditions on the forces.
     for (int p = 0; p < np; ++p)
-        for (const auto& n : sup[p]) g.force[n.I] += n.N * P.mass[p] * s.gravity - P.volume[p] * emp::full(P.stress[p]) * n.grad;
+        for (const auto& n : sup[p]) g.force[n.I] += n.N * P.mass(p) * s.gravity - P.volume[p] * emp::full(P.stress[p]) * n.grad;
     for (const auto& t : s.tractions)
         for (int p : t.points) {
             const Vec<D> tr = (emp::rampFactor(s.time, t.rampTime) * t.traction).template head<D>();

@@ -137,7 +137,7 @@ TYPED_TEST(ContactTest, MomentumIsExchangedExactlyWithAFreeBody)
     auto s = fallingBlock<D, K>(1.0, 0.3);
     const double blockMass = [&] {
         double m = 0;
-        for (double mp : s->points().mass) m += mp;
+        for (double mp : s->points().masses()) m += mp;
         return m;
     }();
     // A body as heavy as the block, at rest, its wall just under the block: it catches it.
@@ -393,8 +393,8 @@ template <int D> double meanVy(const emp::MaterialPoints<D>& P, const std::vecto
     double m = 0, p = 0;
     for (std::size_t i = 0; i < P.size(); ++i)
         if (upper[i] == which) {
-            m += P.mass[i];
-            p += P.mass[i] * P.v[i][1];
+            m += P.mass(i);
+            p += P.mass(i) * P.v[i][1];
         }
     return p / m;
 }
@@ -462,7 +462,7 @@ TYPED_TEST(ContactTest, BodiesMovingApartTransmitNothingAndFrictionSlowsTheSlip)
         for (int n = 0; n < 60; ++n) s->step(dt, 1);
         double vu = 0, vl = 0, mu = 0, ml = 0;
         const auto& P = s->points();
-        for (std::size_t i = 0; i < P.size(); ++i) (upper[i] ? vu : vl) += P.mass[i] * P.v[i][0], (upper[i] ? mu : ml) += P.mass[i];
+        for (std::size_t i = 0; i < P.size(); ++i) (upper[i] ? vu : vl) += P.mass(i) * P.v[i][0], (upper[i] ? mu : ml) += P.mass(i);
         slipLeft[k] = vu / mu - vl / ml;  // 2 m/s at the start
     }
     // Frictionless: only the oblique normals at the blocks' edges act along the slip (measured

@@ -66,12 +66,13 @@ double latticeOverContinuum(double kappaOverSpacing, double offsetInSpacings)
     const auto m = ElasticMaterial::make(32e9, 0.2, 2450, false, 2, emp::lawIndex("spectral"));
     const double s = 1.0e-3, kappa = kappaOverSpacing * s;
     emp::MaterialPoints<2> P;
+    P.density = {1.0};
     const int n = static_cast<int>(std::ceil(kappa / s)) + 2;
     int probe = -1;
     for (int j = -n; j < n; ++j)
         for (int i = -n; i < n; ++i) {
             const emp::Vec<2> x((i + 0.5) * s, (j + 0.5) * s);
-            P.add(x, emp::Vec<2>::Zero(), 1.0, 1.0, 0);
+            P.add(x, emp::Vec<2>::Zero(), 1.0, 0);
             const double rho = x.norm(), theta = std::atan2(x[1], x[0]);
             const Eigen::Vector3d sg = emp::singularStress(CrackMode::I, theta) / std::sqrt(rho);
             const emp::Mat<2> eps = emp::strainOf<2>(sg, m);

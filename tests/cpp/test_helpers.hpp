@@ -123,14 +123,14 @@ std::vector<int> addBlock(emp::Solver<D, K>& s, const std::array<int, D>& cellLo
 template <int D> Vec<D> totalMomentum(const emp::MaterialPoints<D>& P)
 {
     Vec<D> m = Vec<D>::Zero();
-    for (std::size_t p = 0; p < P.size(); ++p) m += P.mass[p] * P.v[p];
+    for (std::size_t p = 0; p < P.size(); ++p) m += P.mass(p) * P.v[p];
     return m;
 }
 
 template <int D> Vec<D> massMoment(const emp::MaterialPoints<D>& P)
 {
     Vec<D> m = Vec<D>::Zero();
-    for (std::size_t p = 0; p < P.size(); ++p) m += P.mass[p] * P.x[p];
+    for (std::size_t p = 0; p < P.size(); ++p) m += P.mass(p) * P.x[p];
     return m;
 }
 

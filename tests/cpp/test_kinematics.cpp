@@ -310,7 +310,7 @@ template <int D, class K> void checkAngularMomentum(StressUpdate u)
     for (int p : ids) s.setVelocityGradient(p, W);
     const double L0 = s.angularMomentum()[2];
     double scale = 0;
-    for (int p : ids) scale += s.points().mass[p] * s.points().v[p].norm();
+    for (int p : ids) scale += s.points().mass(p) * s.points().v[p].norm();
     double worst = 0, worstP = 0;
     const double dt = 0.5 * s.criticalTimeStep();
     for (int n = 0; n < 400; ++n) {

@@ -704,10 +704,10 @@ TYPED_TEST(PhantomSolverTest, MomentumConservedWithCracks)
         s.addCrack({Eigen::Vector3d(0.43, 0.31, 0.52), Eigen::Vector3d(0.61, 0.33, 0.47),
                     Eigen::Vector3d(0.58, 0.57, 0.55)});
     const auto& P = s.points();
-    const double totalMass = emptest::sum(P.mass);
+    const double totalMass = emptest::sum(P.masses());
     const Vec<D> p0 = emptest::totalMomentum<D>(P);
     double scale = 0;
-    for (std::size_t p = 0; p < P.size(); ++p) scale += P.mass[p] * P.v[p].norm();
+    for (std::size_t p = 0; p < P.size(); ++p) scale += P.mass(p) * P.v[p].norm();
     for (int n = 0; n < 20; ++n) {
         s.step(0.4 * s.criticalTimeStep(), 2);
         ASSERT_GT(s.phantomNodes().numTwins(), 0);

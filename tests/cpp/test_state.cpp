@@ -141,21 +141,28 @@ TYPED_TEST(StateTest, ArchivesThatCannotBeRestoredAreRefused)
     }
 }
 
-/// The bytes of the named point array `name` in a saved state: the offset of its element count
-/// (after the tag, a 64-bit length and the name's characters).
-std::size_t arrayAt(const std::string& bytes, const std::string& name)
+/// A name as an archive writes it: a 64-bit length, then the characters.
+std::string tagOf(const std::string& name)
 {
     std::string tag(8, '\0');
     const std::uint64_t n = name.size();
     std::memcpy(&tag[0], &n, 8);
-    tag += name;
+    return tag + name;
+}
+
+/// The bytes of the named point array `name` in a saved state: the offset of its element count
+/// (after the tag, a 64-bit length and the name's characters).
+std::size_t arrayAt(const std::string& bytes, const std::string& name)
+{
+    const std::string tag = tagOf(name);
     const std::size_t at = bytes.find(tag);
     EXPECT_NE(at, std::string::npos) << name;
     return at + tag.size();
 }
 
-/// The state as version 7 wrote it: a 2D point's strain and stress as full 2 x 2 matrices.
-std::string asVersion7(std::string bytes)
+/// The state as version 7 wrote it: a 2D point's strain and stress as full 2 x 2 matrices, and
+/// the points' masses saved (before their volumes).
+std::string asVersion7(std::string bytes, const std::vector<double>& mass)
 {
     const std::size_t versionAt = 8 + std::string("EigenMPM solver state").size();
     const std::uint32_t seven = 7;
@@ -173,20 +180,26 @@ std::string asVersion7(std::string bytes)
         }
         bytes.replace(at + 8, 24 * n, full);
     }
+    std::string array(8, '\0');
+    const std::uint64_t n = mass.size();
+    std::memcpy(&array[0], &n, 8);
+    array.append(reinterpret_cast<const char*>(mass.data()), 8 * n);
+    bytes.insert(arrayAt(bytes, "volume") - tagOf("volume").size(), tagOf("mass") + array);
     return bytes;
 }
 
 TEST(StateTest2D, AStateOfVersion7IsRestoredWithItsFullTensors)
 {
-    // Version 8 stores a 2D point's strain and stress as three numbers (PointTensor.hpp); a
-    // state saved before reads its full matrices, whose symmetric parts are the tensors.
+    // Version 8 stores a 2D point's strain and stress as three numbers (PointTensor.hpp) and no
+    // masses (rho V); a state saved before reads its full matrices, whose symmetric parts are
+    // the tensors, and passes over its masses.
     using Sv = emp::Solver<2, emp::GimpKernel>;
     auto a = scene<2, emp::GimpKernel>(5);
     const double dt = 0.5 * a->criticalTimeStep();
     for (int k = 0; k < 20; ++k) a->step(dt, 1);
     std::stringstream archive;
     a->saveState(archive);
-    std::stringstream old(asVersion7(archive.str()));
+    std::stringstream old(asVersion7(archive.str(), a->points().masses()));
     EXPECT_NE(old.str().size(), archive.str().size());
     auto b = Sv::loadState(old);
     for (std::size_t p = 0; p < a->points().size(); ++p)

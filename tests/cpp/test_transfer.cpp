@@ -104,16 +104,16 @@ TYPED_TEST(TransferTest, MassAndMomentumConservedOverSteps)
     std::mt19937 rng(17 + D);
     addRandomCloud<D>(s, rng, D == 2 ? 300 : 400, 2.0);
     const auto& P = s.points();
-    const double totalMass = emptest::sum(P.mass);
+    const double totalMass = emptest::sum(P.masses());
     const Vec<D> p0 = emptest::totalMomentum<D>(P);
     double scale = 0;  // momentum scale sum m |v|
-    for (std::size_t p = 0; p < P.size(); ++p) scale += P.mass[p] * P.v[p].norm();
+    for (std::size_t p = 0; p < P.size(); ++p) scale += P.mass(p) * P.v[p].norm();
     for (int n = 0; n < 8; ++n) {
         const Vec<D> c0 = emptest::massMoment<D>(P);
         const double dt = 0.4 * s.criticalTimeStep();
         s.step(dt, 1);
         EXPECT_NEAR(emptest::sum(s.grid().mass), totalMass, 1e-13 * totalMass) << "step " << n;
-        EXPECT_NEAR(emptest::sum(P.mass), totalMass, 1e-13 * totalMass);
+        EXPECT_NEAR(emptest::sum(P.masses()), totalMass, 1e-13 * totalMass);
         const Vec<D> p1 = emptest::totalMomentum<D>(P);
         EXPECT_LT((p1 - p0).norm(), 1e-12 * scale) << "step " << n << ": momentum " << p0.transpose() << " -> "
                                                    << p1.transpose();
@@ -142,10 +142,10 @@ TYPED_TEST(TransferTest, MomentumConservedInOneTinyStepWithDefaultCutoff)
     std::mt19937 rng(27 + D);
     addRandomCloud<D>(s, rng, 300, 2.0);
     const auto& P = s.points();
-    const double totalMass = emptest::sum(P.mass);
+    const double totalMass = emptest::sum(P.masses());
     const Vec<D> p0 = emptest::totalMomentum<D>(P);
     double scale = 0;
-    for (std::size_t p = 0; p < P.size(); ++p) scale += P.mass[p] * P.v[p].norm();
+    for (std::size_t p = 0; p < P.size(); ++p) scale += P.mass(p) * P.v[p].norm();
     s.step(1e-4 * s.criticalTimeStep(), 2);
     EXPECT_NEAR(emptest::sum(s.grid().mass), totalMass, 1e-13 * totalMass);
     EXPECT_LT((emptest::totalMomentum<D>(P) - p0).norm(), 1e-12 * scale);
