@@ -158,7 +158,9 @@ int EigenErosion<D>::apply(MaterialPoints<D>& P, const std::vector<ElasticMateri
         const ElasticMaterial& m = materials[P.material[p]];
         before_.push_back(full(P.stress[p]));
         P.damage[p] = 0.0;
-        P.stress[p] = lawResponse<D>(full(P.strain[p]), m).sigmaMinus;  // g(0) sigma+ + sigma-
+        const LawResponse<D> r = lawResponse<D>(full(P.strain[p]), m);
+        P.stress[p] = r.sigmaMinus;                               // g(0) sigma+ + sigma-
+        P.energy[p] = P.damage[p] * r.psiPlus + r.psiMinus;       // (as the stress pass writes it)
     }
     // The events and the dissipated energy (Eq 33), in the single-process order.
     const double perVolume = s.Gc / (2.0 * s.kappa);

@@ -16,8 +16,10 @@ template <int D> struct MaterialPoints {
     std::vector<double> volume;   ///< V_p (reference volume; small-strain theory)
     std::vector<PointTensor<D>> strain;  ///< total small strain eps (2D: symmetric, PointTensor.hpp)
     std::vector<PointTensor<D>> stress;  ///< Cauchy stress sigma = g(c) sigma+ + sigma- (Eq 7)
-    std::vector<double> psiPlus;  ///< psi_e^+ (Eq 3)
-    std::vector<double> psiMinus; ///< psi_e^- (Eq 4)
+    /// Elastic energy density c psi+ + psi- (Eqs 3-4, 7) at the strain and damage of the last
+    /// stress update (erosion updates the points it erodes): what elasticEnergy sums. psi+ and
+    /// psi- themselves are the law's at `strain` (Solver's pointEnergies), not stored.
+    std::vector<double> energy;
     std::vector<double> history;  ///< H = max psi+ over time (Eq 22)
     std::vector<double> damage;   ///< c: 1 intact, 0 eroded (g(c) = c)
     std::vector<std::int32_t> material;
@@ -63,8 +65,7 @@ template <int D> struct MaterialPoints {
         f("volume", volume);
         f("strain", strain);
         f("stress", stress);
-        f("psiPlus", psiPlus);
-        f("psiMinus", psiMinus);
+        f("energy", energy);
         f("history", history);
         f("damage", damage);
         f("material", material);
@@ -108,8 +109,7 @@ template <int D> struct MaterialPoints {
         volume.push_back(vol);
         strain.push_back(PointTensor<D>(Mat<D>::Zero()));
         stress.push_back(PointTensor<D>(Mat<D>::Zero()));
-        psiPlus.push_back(0.0);
-        psiMinus.push_back(0.0);
+        energy.push_back(0.0);
         history.push_back(0.0);
         damage.push_back(1.0);
         material.push_back(mat);

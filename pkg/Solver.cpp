@@ -333,8 +333,7 @@ template <int D, class K> EMP_ALWAYS_INLINE void Solver<D, K>::lawAt(int p)
     withLaw(m.law, [&](auto law) {
         const LawResponse<D> r = decltype(law)::template response<D>(full(P.strain[p]), m);
         store(P.stress[p], P.damage[p] * r.sigmaPlus + r.sigmaMinus);
-        P.psiPlus[p] = r.psiPlus;
-        P.psiMinus[p] = r.psiMinus;
+        P.energy[p] = P.damage[p] * r.psiPlus + r.psiMinus;
         P.history[p] = std::max(P.history[p], r.psiPlus);
     });
 }
@@ -396,8 +395,7 @@ EMP_ALWAYS_INLINE void Solver<D, K>::lawOfRun2(const int* ids, int n)
     for (int i = 0; i < n; ++i) {
         const int p = ids[i];
         P.stress[p] = Sym2::of(sigma[0][i], sigma[1][i], sigma[2][i], sigma[3][i]);
-        P.psiPlus[p] = psiPlus[i];
-        P.psiMinus[p] = psiMinus[i];
+        P.energy[p] = c[i] * psiPlus[i] + psiMinus[i];
         P.history[p] = std::max(P.history[p], psiPlus[i]);
     }
 }
@@ -419,8 +417,7 @@ template <int D, class K> EMP_ALWAYS_INLINE void Solver<D, K>::corotationalStres
     withLaw(m.law, [&](auto law) {
         const LawResponse<D> r = decltype(law)::template response<D>(eps, m);
         P.stress[p] = cauchyStress<D>(R, U, P.damage[p] * r.sigmaPlus + r.sigmaMinus);
-        P.psiPlus[p] = r.psiPlus;
-        P.psiMinus[p] = r.psiMinus;
+        P.energy[p] = P.damage[p] * r.psiPlus + r.psiMinus;
         P.history[p] = std::max(P.history[p], r.psiPlus);
     });
 }
@@ -494,8 +491,7 @@ EMP_ALWAYS_INLINE void Solver<D, K>::corotationalOfRun2(const int* ids, const St
         }
         P.strain[p] = Sym2::of(e[0][i], e[1][i], e[2][i], e[3][i]);
         P.stress[p] = Sym2::of(sigma[0][i], sigma[1][i], sigma[2][i], sigma[3][i]);
-        P.psiPlus[p] = psiPlus[i];
-        P.psiMinus[p] = psiMinus[i];
+        P.energy[p] = c[i] * psiPlus[i] + psiMinus[i];
         P.history[p] = std::max(P.history[p], psiPlus[i]);
     }
 }
@@ -585,8 +581,7 @@ EMP_NOINLINE void Solver<D, K>::corotationalOfRun3(const int* ids, const St* st,
                 const LawResponse<3> resp = decltype(law)::template response<3>(eps, m);
                 const Mat<3> s = P.damage[p] * resp.sigmaPlus + resp.sigmaMinus;
                 for (int k = 0; k < 9; ++k) sig[k][i] = s(k / 3, k % 3);
-                P.psiPlus[p] = resp.psiPlus;
-                P.psiMinus[p] = resp.psiMinus;
+                P.energy[p] = P.damage[p] * resp.psiPlus + resp.psiMinus;
                 P.history[p] = std::max(P.history[p], resp.psiPlus);
             });
         }
@@ -1311,7 +1306,7 @@ template <int D, class K> double Solver<D, K>::elasticEnergy() const
 {
     double e = 0;
     for (std::size_t p = 0; p < points_.size(); ++p)
-        e += points_.volume[p] * (points_.damage[p] * points_.psiPlus[p] + points_.psiMinus[p]);
+        e += points_.volume[p] * points_.energy[p];  // (c psi+ + psi-, as the stress pass and erosion left it)
     return overRanks(dist_, e);
 }
 

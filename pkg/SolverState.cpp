@@ -17,7 +17,8 @@ constexpr std::uint32_t kVersion = 8;  // 2: transfer, stress update, energy dia
                                        // points' reference positions of a run distributed at set-up; 7: the
                                        // scheduler's columns, and a distributed run's columns of ranks; 8: a 2D
                                        // point's strain and stress as symmetric tensors (three numbers), and
-                                       // no mass array (a point's mass is rho V)
+                                       // no mass array (a point's mass is rho V), and the elastic energy
+                                       // density c psi+ + psi- in place of psi+ and psi-
 }  // namespace
 
 namespace {
@@ -221,6 +222,7 @@ template <int D, class K> std::shared_ptr<Solver<D, K>> Solver<D, K>::loadState(
     }
 
     r.expect("points");
+    std::vector<double> psiPlus, psiMinus;
     s->points_.forEachArray([&](const char* name, auto& a) {
         if (h.version < 2 && s->points_.expectedLength(name) == 0) return;  // (optional arrays came with 2)
         if (h.version < 4 && std::string(name) == "body") return;          // (and the bodies with 4)
@@ -231,11 +233,24 @@ template <int D, class K> std::shared_ptr<Solver<D, K>> Solver<D, K>::loadState(
             std::vector<double> mass;
             r.array(mass);
         }
+        if (h.version < 8 && std::string(name) == "energy") {  // (psi+ and psi- until 8: c psi+ + psi- now)
+            r.expect("psiPlus");
+            r.array(psiPlus);
+            r.expect("psiMinus");
+            r.array(psiMinus);
+            return;
+        }
         r.expect(name);
         readPointArray(r, h.version, a);
         if (a.size() != s->points_.expectedLength(name))
             r.fail(std::string("a point array '") + name + "' of another length");
     });
+    if (h.version < 8) {
+        auto& P = s->points_;
+        if (psiPlus.size() != P.size() || psiMinus.size() != P.size()) r.fail("psi arrays of another length");
+        P.energy.resize(P.size());
+        for (std::size_t p = 0; p < P.size(); ++p) P.energy[p] = P.damage[p] * psiPlus[p] + psiMinus[p];
+    }
 
     r.expect("conditions");
     const auto nc = r.value<std::uint64_t>();

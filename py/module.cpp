@@ -618,8 +618,19 @@ template <class Sv> struct Bind {
         for (std::size_t i = 0; i < v.size(); ++i) out[i] = static_cast<double>(v[i]);
         return a;
     }
-    static np::ndarray psiPlus(const Sv& s) { return scalars(s.points().psiPlus); }
-    static np::ndarray psiMinus(const Sv& s) { return scalars(s.points().psiMinus); }
+    /// psi+ or psi- of each point: its law's at its strain (the stress update's values: not stored).
+    static np::ndarray splitEnergy(const Sv& s, bool plus)
+    {
+        const auto& P = s.points();
+        std::vector<double> e(P.size());
+        for (std::size_t p = 0; p < P.size(); ++p) {
+            const LawResponse<D> r = lawResponse<D>(full(P.strain[p]), s.materials()[P.material[p]]);
+            e[p] = plus ? r.psiPlus : r.psiMinus;
+        }
+        return scalars(e);
+    }
+    static np::ndarray psiPlus(const Sv& s) { return splitEnergy(s, true); }
+    static np::ndarray psiMinus(const Sv& s) { return splitEnergy(s, false); }
     static np::ndarray history(const Sv& s) { return scalars(s.points().history); }
     static np::ndarray damage(const Sv& s) { return scalars(s.points().damage); }
     /// The points' ids in the single-process scene: 0, 1, ... unless distributed (doc/parallel.md).

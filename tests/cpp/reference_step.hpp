@@ -120,8 +120,7 @@ template <int D, class K> void referenceStep(ReferenceScene<D, K>& s, double dt)
         P.strain[p] += Mat<D>(0.5 * dt * (L + L.transpose()));
         const auto r = emp::lawResponse<D>(emp::full(P.strain[p]), s.materials[P.material[p]]);
         emp::store(P.stress[p], P.damage[p] * r.sigmaPlus + r.sigmaMinus);
-        P.psiPlus[p] = r.psiPlus;
-        P.psiMinus[p] = r.psiMinus;
+        P.energy[p] = P.damage[p] * r.psiPlus + r.psiMinus;
         P.history[p] = std::max(P.history[p], r.psiPlus);
     }
     // (4) Eigenerosion (Eqs 23-24) by brute force; all qualifying points erode together.

@@ -201,8 +201,8 @@ template <int D> void checkCorotationalRuns()
         const auto r = emp::lawResponse<D>(eps, s.materials()[P.material[p]]);
         const Mat<D> sigma = emp::cauchyStress<D>(R, U, P.damage[p] * r.sigmaPlus + r.sigmaMinus);
         for (int k = 0; k < D * D; ++k) ASSERT_EQ(bits(emp::full(P.stress[p])(k)), bits(sigma(k))) << "point " << p;
-        ASSERT_EQ(bits(P.psiPlus[p]), bits(r.psiPlus)) << "point " << p;
-        ASSERT_EQ(bits(P.psiMinus[p]), bits(r.psiMinus)) << "point " << p;
+        // (psi+ and psi- are the law's at the stored strain: Solver and _eigenmpm recompute them)
+        ASSERT_EQ(bits(P.energy[p]), bits(P.damage[p] * r.psiPlus + r.psiMinus)) << "point " << p;
         tensile += r.psiPlus > 0 && r.psiMinus > 0;
         turned += std::abs(R(1, 0)) > 1e-3;
     }

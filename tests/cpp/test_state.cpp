@@ -71,6 +71,17 @@ template <class Sv> void expectSame(const Sv& a, const Sv& b)
     EXPECT_EQ(a.criticalTimeStep(), b.criticalTimeStep());
 }
 
+/// Each point's energy density is its law's c psi+ + psi- at its strain, points eroded in the
+/// last step included (erosion rewrites theirs): what psiPlus()/psiMinus() recompute.
+template <class Sv> void expectEnergyOfTheLaw(const Sv& a)
+{
+    const auto& P = a.points();
+    for (std::size_t p = 0; p < P.size(); ++p) {
+        const auto r = emp::lawResponse<Sv::dim>(emp::full(P.strain[p]), a.materials()[P.material[p]]);
+        ASSERT_EQ(emptest::bits(P.energy[p]), emptest::bits(P.damage[p] * r.psiPlus + r.psiMinus)) << "point " << p;
+    }
+}
+
 TYPED_TEST(StateTest, RestoredSolverContinuesBitwise)
 {
     constexpr int D = TypeParam::D;
@@ -80,7 +91,14 @@ TYPED_TEST(StateTest, RestoredSolverContinuesBitwise)
     for (int threads : {1, 2}) {
         auto a = scene<D, K>(3, columns);
         const double dt = 0.5 * a->criticalTimeStep();
-        for (int k = 0; k < 15; ++k) a->step(dt, threads);
+        int erodingSteps = 0;
+        for (int k = 0; k < 15; ++k) {
+            a->step(dt, threads);
+            if (!a->erosion()->lastEroded().empty()) {
+                ++erodingSteps;
+                expectEnergyOfTheLaw(*a);
+            }
+        }
         std::stringstream archive;
         a->saveState(archive);
         auto b = Sv::loadState(archive);
@@ -95,9 +113,14 @@ TYPED_TEST(StateTest, RestoredSolverContinuesBitwise)
         for (int k = 0; k < 24; ++k) {
             a->step(dt, threads);
             b->step(dt, 3 - threads);  // and on the other thread count
+            if (!a->erosion()->lastEroded().empty()) {
+                ++erodingSteps;
+                expectEnergyOfTheLaw(*a);
+            }
         }
         expectSame(*a, *b);
         EXPECT_GT(a->erosion()->erodedCount(), 0u) << "the run should erode";
+        EXPECT_GT(erodingSteps, 0);
         EXPECT_GT(a->phantomNodes().numTwins(), 0);
     }
 }
@@ -160,10 +183,26 @@ std::size_t arrayAt(const std::string& bytes, const std::string& name)
     return at + tag.size();
 }
 
-/// The state as version 7 wrote it: a 2D point's strain and stress as full 2 x 2 matrices, and
-/// the points' masses saved (before their volumes).
-std::string asVersion7(std::string bytes, const std::vector<double>& mass)
+/// An array as an archive writes it: a 64-bit count, then the values.
+std::string arrayOf(const std::vector<double>& a)
 {
+    std::string out(8, '\0');
+    const std::uint64_t n = a.size();
+    std::memcpy(&out[0], &n, 8);
+    return out.append(reinterpret_cast<const char*>(a.data()), 8 * n);
+}
+
+/// The state as version 7 wrote it: a 2D point's strain and stress as full 2 x 2 matrices, the
+/// points' masses saved (before their volumes), and psi+ and psi- in place of the energy density.
+std::string asVersion7(std::string bytes, const emp::Solver<2, emp::GimpKernel>& s)
+{
+    const auto& P = s.points();
+    std::vector<double> psiPlus, psiMinus;
+    for (std::size_t p = 0; p < P.size(); ++p) {
+        const auto r = emp::lawResponse<2>(emp::full(P.strain[p]), s.materials()[P.material[p]]);
+        psiPlus.push_back(r.psiPlus);
+        psiMinus.push_back(r.psiMinus);
+    }
     const std::size_t versionAt = 8 + std::string("EigenMPM solver state").size();
     const std::uint32_t seven = 7;
     std::memcpy(&bytes[versionAt], &seven, 4);
@@ -180,30 +219,32 @@ std::string asVersion7(std::string bytes, const std::vector<double>& mass)
         }
         bytes.replace(at + 8, 24 * n, full);
     }
-    std::string array(8, '\0');
-    const std::uint64_t n = mass.size();
-    std::memcpy(&array[0], &n, 8);
-    array.append(reinterpret_cast<const char*>(mass.data()), 8 * n);
-    bytes.insert(arrayAt(bytes, "volume") - tagOf("volume").size(), tagOf("mass") + array);
+    bytes.insert(arrayAt(bytes, "volume") - tagOf("volume").size(), tagOf("mass") + arrayOf(P.masses()));
+    const std::size_t energy = arrayAt(bytes, "energy") - tagOf("energy").size();
+    bytes.replace(energy, tagOf("energy").size() + 8 + 8 * P.size(),
+                  tagOf("psiPlus") + arrayOf(psiPlus) + tagOf("psiMinus") + arrayOf(psiMinus));
     return bytes;
 }
 
 TEST(StateTest2D, AStateOfVersion7IsRestoredWithItsFullTensors)
 {
-    // Version 8 stores a 2D point's strain and stress as three numbers (PointTensor.hpp) and no
-    // masses (rho V); a state saved before reads its full matrices, whose symmetric parts are
-    // the tensors, and passes over its masses.
+    // Version 8 stores a 2D point's strain and stress as three numbers (PointTensor.hpp), no
+    // masses (rho V) and c psi+ + psi- instead of psi+ and psi-; a state saved before reads its
+    // full matrices, whose symmetric parts are the tensors, passes over its masses and sums its
+    // energy densities.
     using Sv = emp::Solver<2, emp::GimpKernel>;
     auto a = scene<2, emp::GimpKernel>(5);
     const double dt = 0.5 * a->criticalTimeStep();
     for (int k = 0; k < 20; ++k) a->step(dt, 1);
     std::stringstream archive;
     a->saveState(archive);
-    std::stringstream old(asVersion7(archive.str(), a->points().masses()));
+    std::stringstream old(asVersion7(archive.str(), *a));
     EXPECT_NE(old.str().size(), archive.str().size());
     auto b = Sv::loadState(old);
     for (std::size_t p = 0; p < a->points().size(); ++p)
         ASSERT_EQ(emp::full(a->points().strain[p]), emp::full(b->points().strain[p])) << "point " << p;
+    EXPECT_EQ(a->points().energy, b->points().energy);
+    EXPECT_EQ(a->elasticEnergy(), b->elasticEnergy());
     expectSame(*a, *b);
     for (int k = 0; k < 10; ++k) {
         a->step(dt, 1);
