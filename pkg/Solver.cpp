@@ -190,7 +190,7 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
             const int p = order[k];
             St& st = stencil_[k];
             if constexpr (!decltype(computed)::value) st.compute(P.x[p], g, half);
-            if (mapping && st.overlaps(markedLo_, markedHi_)) mapSupport(st, p, k);
+            if (mapping && St::overlaps(P.x[p], g, markedLo_, markedHi_)) mapSupport(st, p, k);
             const double mp = P.mass(p);
             const Vec<D> mv = mp * P.v[p];
             if constexpr (!decltype(apic)::value) {
@@ -677,7 +677,7 @@ template <int D, class K> typename Solver<D, K>::St Solver<D, K>::stencilOf(int 
     St st;
     st.compute(points_.x[p], grid_, lp_);
     // As in P2G: a support outside the box of the marked nodes has no node to map.
-    if (mapping_ && st.overlaps(markedLo_, markedHi_)) mapSupport(st, p, static_cast<int>(points_.size()));
+    if (mapping_ && St::overlaps(points_.x[p], grid_, markedLo_, markedHi_)) mapSupport(st, p, static_cast<int>(points_.size()));
     return st;
 }
 

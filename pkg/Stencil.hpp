@@ -48,16 +48,42 @@ struct Lane3 {
 template <int D, class K> struct Stencil {
     static constexpr int S = K::S;
     static constexpr int NS = D == 2 ? S * S : S * S * S;
-    int base[D];
+    /// Index of the support's base node (its lowest corner) on the regular lattice. One number
+    /// instead of the D lattice coordinates (8 B per point less in 2D and 3D: issue 12 item 3);
+    /// baseOf recovers a coordinate where one is needed.
+    int first;
     int remap;  ///< offset of the node indices in Grid::remap, or -1 (the regular lattice's nodes)
     double w[D][S], dw[D][S];
+
+    /// The base node's index from its lattice coordinates b.
+    static EMP_ALWAYS_INLINE int firstOf(const Grid<D>& g, const int* b)
+    {
+        int f = b[0] + b[1] * g.stride[1];
+        if constexpr (D == 3) f += b[D - 1] * g.stride[D - 1];
+        return f;
+    }
+    /// The base node's lattice coordinate along d (integer divisions: outside the passes' loops).
+    int baseOf(const Grid<D>& g, int d) const
+    {
+        int r = first;
+        for (int e = D - 1; e > d; --e) r %= g.stride[e];
+        return r / g.stride[d];
+    }
+    /// The base node's coordinate along d of the point at x, from x as compute() found it (the
+    /// same operations, so the same integer; cheaper than baseOf's divisions in the passes).
+    static EMP_ALWAYS_INLINE int baseAt(const Vec<D>& x, const Grid<D>& g, int d)
+    {
+        return K::base((x[d] - g.origin[d]) * g.invh);
+    }
 
     /// Weights and derivatives of the point at x for the particle half-width lp (cells).
     void compute(const Vec<D>& x, const Grid<D>& g, const HalfWidth& lp)
     {
         double xi[D];
+        int base[D];
         for (int d = 0; d < D; ++d) xi[d] = (x[d] - g.origin[d]) * g.invh;
         K::template evalAll<D>(xi, lp, base, w, dw);
+        first = firstOf(g, base);
         remap = -1;
     }
 
@@ -83,8 +109,10 @@ template <int D, class K> struct Stencil {
         });
         for (int i = 0; i < n; ++i) {
             Stencil& st = out[i];
+            int base[D];
+            for (int d = 0; d < D; ++d) base[d] = bs[d][i];
+            st.first = firstOf(g, base);
             for (int d = 0; d < D; ++d) {
-                st.base[d] = bs[d][i];
                 for (int k = 0; k < S; ++k) {
                     st.w[d][k] = ws[d][k][i];
                     st.dw[d][k] = dws[d][k][i];
@@ -94,11 +122,14 @@ template <int D, class K> struct Stencil {
         }
     }
 
-    /// Whether the support can touch a marked node: it overlaps the box [lo, hi] of them.
-    bool overlaps(const int* lo, const int* hi) const
+    /// Whether the support of the point at x (this stencil's point) can touch a marked node: it
+    /// overlaps the box [lo, hi] of them.
+    static EMP_ALWAYS_INLINE bool overlaps(const Vec<D>& x, const Grid<D>& g, const int* lo, const int* hi)
     {
-        for (int d = 0; d < D; ++d)
-            if (base[d] > hi[d] || base[d] + S - 1 < lo[d]) return false;
+        for (int d = 0; d < D; ++d) {
+            const int base = baseAt(x, g, d);
+            if (base > hi[d] || base + S - 1 < lo[d]) return false;
+        }
         return true;
     }
 
@@ -112,8 +143,9 @@ template <int D, class K> struct Stencil {
             // passes near that box, no segment from the point to a node can cross one.
             Vec<D> lo, hi;
             for (int d = 0; d < D; ++d) {
-                lo[d] = g.origin[d] + base[d] * g.h;
-                hi[d] = g.origin[d] + (base[d] + S - 1) * g.h;
+                const int base = baseOf(g, d);
+                lo[d] = g.origin[d] + base * g.h;
+                hi[d] = g.origin[d] + (base + S - 1) * g.h;
             }
             if (ph.clearOf(lo, hi, 1e-6 * g.h)) return;
         }
@@ -157,8 +189,8 @@ template <int D, class K> struct Stencil {
     /// Index of support node k (x fastest) on the regular lattice.
     int regularNode(const Grid<D>& g, int k) const
     {
-        int I = base[0] + k % S + (base[1] + (k / S) % S) * g.stride[1];
-        if constexpr (D == 3) I += (base[2] + k / (S * S)) * g.stride[2];
+        int I = first + k % S + (k / S) % S * g.stride[1];
+        if constexpr (D == 3) I += k / (S * S) * g.stride[2];
         return I;
     }
 
@@ -167,25 +199,29 @@ template <int D, class K> struct Stencil {
     Vec<D> nodePosition(const Grid<D>& g, int k) const
     {
         Vec<D> x;
-        for (int d = 0, r = k; d < D; ++d, r /= S) x[d] = g.origin[d] + (base[d] + r % S) * g.h;
+        for (int d = 0, r = k; d < D; ++d, r /= S) x[d] = g.origin[d] + (baseOf(g, d) + r % S) * g.h;
         return x;
     }
 
     /// Offsets x_I - x_p (m) of the support nodes from the point at x, per direction: o[d][k]
-    /// for the node base[d] + k (a twin sits where its node is).
+    /// for the node base + k along d (a twin sits where its node is).
     void offsets(const Vec<D>& x, const Grid<D>& g, double (*o)[S]) const
     {
-        for (int d = 0; d < D; ++d)
-            for (int k = 0; k < S; ++k) o[d][k] = g.origin[d] + (base[d] + k) * g.h - x[d];
+        for (int d = 0; d < D; ++d) {
+            const int base = baseOf(g, d);
+            for (int k = 0; k < S; ++k) o[d][k] = g.origin[d] + (base + k) * g.h - x[d];
+        }
     }
 
     /// The same offsets in cells, u[d][k] = (x_I - x_p) / h (APIC's transfers: with these, the
     /// moment matrix is h^2 diag(momentDiagonal(u)) and h cancels from C_p (x_I - x_p)). Two
     /// operations per direction and one per node, against four per node for `offsets`.
+    /// x must be the position the stencil was computed at (its base is found again from it).
     EMP_ALWAYS_INLINE void cellOffsets(const Vec<D>& x, const Grid<D>& g, double (*u)[S]) const
     {
         for (int d = 0; d < D; ++d) {
-            const double b = base[d] - (x[d] - g.origin[d]) * g.invh;
+            const double xi = (x[d] - g.origin[d]) * g.invh;
+            const double b = K::base(xi) - xi;
             for (int k = 0; k < S; ++k) u[d][k] = b + k;
         }
     }
@@ -254,7 +290,7 @@ template <int D, class K> struct Stencil {
     EMP_ALWAYS_INLINE void affineSums(const Grid<D>& g, const double (*o)[S], V&& v, Vec<D>& sum, Mat<D>& B) const
     {
         withNodeOf(g, [&](auto nodeOf) EMP_LAMBDA_INLINE {
-            Vec<D> column[S];  // sums over the nodes base[0] + i of every row
+            Vec<D> column[S];  // sums over the nodes first + i of every row
             for (int i = 0; i < S; ++i) column[i].setZero();
             sum.setZero();
             B.setZero();
@@ -329,8 +365,7 @@ template <int D, class K> struct Stencil {
         // strides and the base read in the sum for each node, GCC reloaded them after every
         // store to node[] (it may alias them), about 6 instructions a node in 3D.
         const int s1 = g.stride[1], s2 = D == 3 ? g.stride[D - 1] : 0;
-        int first = base[0] + base[1] * s1;
-        if constexpr (D == 3) first += base[D - 1] * s2;
+        const int first = this->first;
         for (int k = 0; k < NS; ++k) node[k] = first + k % S + (k / S) % S * s1 + k / (S * S) * s2;
     }
 
@@ -455,9 +490,9 @@ template <int D, class K> struct Stencil {
     /// The first node of row j (2D) or (j, k) (3D) of a regular support.
     EMP_ALWAYS_INLINE int rowStart(const Grid<D>& g, int j, int k = 0) const
     {
-        int first = base[0] + (base[1] + j) * g.stride[1];
-        if constexpr (D == 3) first += (base[2] + k) * g.stride[2];
-        return first;
+        int I = first + j * g.stride[1];
+        if constexpr (D == 3) I += k * g.stride[2];
+        return I;
     }
 
     /// forEach by rows (its weights N): row(first node, N).

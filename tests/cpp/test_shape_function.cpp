@@ -482,7 +482,16 @@ template <int D> void checkComputeRun()
                 St::template computeRun<R>(m, [&](int i) -> const Vec<D>& { return x[begin + i]; }, g, half, run.data());
                 for (int i = 0; i < m; ++i) {
                     one[i].compute(x[begin + i], g, half);
-                    ASSERT_EQ(std::memcmp(&run[i].base, &one[i].base, sizeof one[i].base), 0) << emp::name(w);
+                    ASSERT_EQ(run[i].first, one[i].first) << emp::name(w);
+                    // The lattice coordinates of the base node: from the stored index (baseOf),
+                    // from the position as the passes find them again (baseAt), and the kernel's.
+                    for (int d = 0; d < D; ++d) {
+                        const double xi = (x[begin + i][d] - g.origin[d]) * g.invh;
+                        double we[3], dwe[3];
+                        const int b = emp::GimpKernel::eval(xi, half.lp, we, dwe);
+                        ASSERT_EQ(one[i].baseOf(g, d), b) << "d " << d << ", x = " << x[begin + i].transpose();
+                        ASSERT_EQ(St::baseAt(x[begin + i], g, d), b) << "d " << d;
+                    }
                     ASSERT_EQ(run[i].remap, one[i].remap);
                     ASSERT_EQ(std::memcmp(run[i].w, one[i].w, sizeof one[i].w), 0)
                         << emp::name(w) << ", ppc " << ppc << ", x = " << x[begin + i].transpose();
