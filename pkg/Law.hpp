@@ -8,7 +8,9 @@
 //                                                  i.e. never erode (tested for every law)
 //   template <int D> static LawResponse<D> response(const Mat<D>& eps, const ElasticMaterial& m);
 //       sigma+ and sigma- with sigma = g(c) sigma+ + sigma- (Eq 7), and psi+/psi- (Eqs 3-4);
-//       an eroded point (c = 0) keeps sigma-
+//       an eroded point (c = 0) keeps sigma-; a 2D point stores the stress's symmetric part (three
+//       numbers, PointTensor.hpp), and psi+/psi- are evaluated again from the strain where
+//       they are asked for, so the response must be a function of eps and m alone
 //   static double outOfPlaneStress(const Mat<2>& eps, double c, const ElasticMaterial& m);
 //       sigma_zz of a 2D point (plane strain; plane stress returns 0)
 //   static double waveSpeed(const ElasticMaterial& m);   dilatational wave speed (critical dt)
