@@ -18,7 +18,7 @@ template <int D> struct MaterialPoints {
     std::vector<PointTensor<D>> stress;  ///< Cauchy stress sigma = g(c) sigma+ + sigma- (Eq 7)
     /// Elastic energy density c psi+ + psi- (Eqs 3-4, 7) at the strain and damage of the last
     /// stress update (erosion updates the points it erodes): what elasticEnergy sums. psi+ and
-    /// psi- themselves are the law's at `strain` (Solver's pointEnergies), not stored.
+    /// psi- themselves are the law's at `strain`, not stored (_eigenmpm's psiPlus(), psiMinus()).
     std::vector<double> energy;
     std::vector<double> history;  ///< H = max psi+ over time (Eq 22)
     std::vector<double> damage;   ///< c: 1 intact, 0 eroded (g(c) = c)

@@ -19,9 +19,7 @@ constexpr std::uint32_t kVersion = 8;  // 2: transfer, stress update, energy dia
                                        // point's strain and stress as symmetric tensors (three numbers), and
                                        // no mass array (a point's mass is rho V), and the elastic energy
                                        // density c psi+ + psi- in place of psi+ and psi-
-}  // namespace
 
-namespace {
 /// A point array as saved; before version 8 a 2D strain or stress was a full 2 x 2 matrix.
 template <class T> void readPointArray(ArchiveReader& r, int version, std::vector<T>& a)
 {
