@@ -23,9 +23,9 @@ struct Sym2 {
     Sym2() = default;
     Sym2(double a, double b, double c) : xx(a), xy(b), yy(c) {}
     /// The symmetric part of m (bitwise m's own components when m is symmetric).
-    Sym2(const Mat<2>& m) : xx(m(0, 0)), xy(0.5 * (m(0, 1) + m(1, 0))), yy(m(1, 1)) {}
+    Sym2(const Mat<2>& m) : Sym2(of(m(0, 0), m(0, 1), m(1, 0), m(1, 1))) {}
 
-    /// The symmetric part of (xx, xy; yx, yy), as Sym2(const Mat<2>&) takes it.
+    /// The symmetric part of (xx, xy; yx, yy).
     static Sym2 of(double xx, double xy, double yx, double yy) { return {xx, 0.5 * (xy + yx), yy}; }
 
     Mat<2> mat() const
