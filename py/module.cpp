@@ -117,6 +117,52 @@ struct NoGil {
     ~NoGil() { PyEval_RestoreThread(state); }
 };
 
+/// YADE steps O.run in a thread of its own (a new one for each O.run) that Python does not know:
+/// every PyRunner call, which is every one of our engines, makes a Python thread state for it
+/// (PyGILState_Ensure) and deletes it again (PyGILState_Release), mapping and unmapping a 16 KiB
+/// frame stack each time. That costs about 20 us per call in an empty scene and 0.1-0.2 ms after
+/// a large step, whose work has left the state's memory out of the caches (doc/performance.md,
+/// "Session 25"). keepThreadState() holds one more count on that state, so that it lives as long
+/// as the thread, and gives the count back when the thread ends.
+///
+/// It holds only a state that the current call made (count 1, not the main thread's): a thread
+/// that Python started, or one that already holds a state of its own, is left alone. At the
+/// thread's end the count is given back only while the interpreter runs and the state is still
+/// the thread's (a Python thread deletes its own state when it ends).
+struct ThreadStateHold {
+    bool held = false;
+    ~ThreadStateHold()
+    {
+        if (!held || !Py_IsInitialized() || _Py_IsFinalizing() || PyGILState_GetThisThreadState() == nullptr) return;
+        const PyGILState_STATE s = PyGILState_Ensure();
+        PyGILState_Release(PyGILState_LOCKED);  // the held count
+        PyGILState_Release(s);                  // the last count: deletes the state and releases the lock
+    }
+};
+thread_local ThreadStateHold threadStateHold;
+
+bool keepThreadState()
+{
+    if (threadStateHold.held) return true;
+#if PY_VERSION_HEX < 0x030D0000
+    PyThreadState* t = PyThreadState_Get();
+    if (_PyOS_IsMainThread() || t != PyGILState_GetThisThreadState() || t->gilstate_counter != 1) return false;
+    PyGILState_Ensure();  // the state is current: only its count goes up (PyGILState_LOCKED)
+    threadStateHold.held = true;
+    return true;
+#else
+    return false;  // (gilstate_counter is not in later versions' thread state; nothing held)
+#endif
+}
+
+/// The number of Python thread states of the interpreter (the current thread's included).
+int threadStates()
+{
+    int n = 0;
+    for (PyThreadState* t = PyInterpreterState_ThreadHead(PyThreadState_Get()->interp); t; t = PyThreadState_Next(t)) ++n;
+    return n;
+}
+
 template <int D> struct BindErosion {
     using Er = EigenErosion<D>;
     static std::shared_ptr<Er> make(double Gc, double alpha, double kappa)
@@ -899,6 +945,11 @@ BOOST_PYTHON_MODULE(EMP_MODULE_NAME)
     }, (bp::arg("width")),
             "Sets the lanes' width (capped at what the processor runs; the results are the same in every width); "
             "returns the width set.");
+    bp::def("keepThreadState", &keepThreadState,
+            "Keeps the calling thread's Python thread state until the thread ends, if the current call made it "
+            "(YADE's O.run thread inside a PyRunner): later PyRunner calls in that thread do not make and delete "
+            "one each. Returns whether the state is held. The MpmEngine calls it at every step.");
+    bp::def("threadStates", &threadStates, "The number of Python thread states of the interpreter.");
     bp::def("lawNames", +[] {
         bp::list l;
         for (const auto& n : lawNames()) l.append(n);

@@ -609,6 +609,10 @@ class MpmEngine(PyRunner):
         return engines
 
     def _action(self):
+        # YADE's O.run thread has no Python thread state of its own: keep the one this call made,
+        # so that the PyRunner calls after it (ours and the user's) do not make and delete one
+        # each (py/module.cpp, keepThreadState).
+        _eigenmpm.keepThreadState()
         engines = self._syncPhysics()
         if not self._started:
             self._started = True

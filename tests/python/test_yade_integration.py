@@ -174,3 +174,46 @@ def test_two_engines_side_by_side():
     with pytest.raises(ValueError, match="2 MpmEngine"):
         em.findEngine()
     assert em.findEngine("b") is b
+
+
+def _settle(count, target, timeout=10.0):
+    """count() once it is at most target (O.run's thread gives its Python state back as it ends,
+    just after O.run returns), or its value after timeout seconds."""
+    import time
+    end = time.monotonic() + timeout
+    while count() > target and time.monotonic() < end:
+        time.sleep(0.01)
+    return count()
+
+
+def test_yade_run_thread_keeps_its_python_state_while_it_runs_and_gives_it_back():
+    # YADE makes and deletes a Python thread state for each PyRunner call in O.run's thread; the
+    # MpmEngine keeps the first one for the thread's life (py/module.cpp, keepThreadState). Seen
+    # from Python: a threading.local's value set at one iteration is there at the next.
+    import threading
+    from eigenmpm import _eigenmpm
+    local, seen = threading.local(), []
+
+    def probe():
+        seen.append(getattr(local, "iteration", None))
+        local.iteration = O.iter
+
+    mpm = em.MpmEngine(h=0.02)
+    mpm.fill(pack.inAlignedBox((0, 0, 0), (0.1, 0.05, 0)), concrete())
+    O.engines = [mpm, em.callEvery(probe)]
+    O.dt = 0.5 * mpm.criticalTimeStep()
+    before = _eigenmpm.threadStates()
+    O.run(6, True)
+    assert seen == [None, 0, 1, 2, 3, 4]  # (each call sees the iteration of the one before)
+    # Each O.run has a thread of its own; each gives its state back as it ends.
+    for _ in range(40):
+        O.run(2, True)
+    assert _settle(_eigenmpm.threadStates, before) == before
+    # The main thread's state is Python's own, and a Python thread deletes its own as it ends.
+    assert not _eigenmpm.keepThreadState()
+    worker = threading.Thread(target=_eigenmpm.keepThreadState)
+    worker.start()
+    worker.join()
+    assert _settle(_eigenmpm.threadStates, before) == before
+    O.step()  # (in the main thread)
+    assert mpm.solver.steps == 87
