@@ -7,7 +7,7 @@ import time
 from yade import O, PyRunner
 
 from . import parallel
-from .engines import _register, registered
+from .engines import _register, _releaseLabel, registered
 from .params import Param, apply, declare
 
 SCENE = "scene.yade.bz2"
@@ -33,6 +33,8 @@ class Checkpoint(PyRunner):
         em.checkpoint.resume('out/ckpt')   # in a new process: the scene as saved
         O.run(remaining, True)
     """
+
+    _release = _releaseLabel  # (O.reset(): the label is free again)
 
     params = (
         Param("label", "checkpoint", "", "YADE label of the engine"),

@@ -61,15 +61,17 @@ def _wrapReset():
     """Makes O.reset() free our engines of the scene it ends. YADE keeps every Python engine that
     was ever assigned to O.engines alive (one reference per assignment, and its label in
     builtins), so the engines cannot be freed; their heavy state (the solver, the erosion state)
-    is released instead (``_release``). Released: the engines in O.engines at the reset and those
-    that stepped."""
+    is released instead (``_release``). Released: the engines in O.engines at the reset, those
+    that stepped, and those of a scene that a load replaced (_sceneReplaced)."""
     from yade.wrapper import Omega
     original = getattr(Omega.reset, "_eigenmpmOriginal", Omega.reset)
 
     def reset(self, *args, **kwargs):
-        scene = {id(e) for e in O.engines}
+        # (after YADE's own load, O.engines holds plain PyRunners whose commands call our objects)
+        scene = {id(e) for e in O.engines} | {id(registered(e)) for e in O.engines}
         ending = [e for e in list(_registry.values())
-                  if hasattr(e, "_release") and (id(e) in scene or getattr(e, "_started", False))]
+                  if hasattr(e, "_release") and (id(e) in scene or getattr(e, "_started", False)
+                                                 or getattr(e, "_sceneEnded", False))]
         original(self, *args, **kwargs)
         for e in ending:
             e._release()
@@ -80,6 +82,23 @@ def _wrapReset():
 
 
 _wrapReset()
+
+
+def _releaseLabel(engine):
+    """The _release of an engine that holds nothing heavy (the recorders, Checkpoint): it only
+    marks the engine so that its default label is free for the next scene's."""
+    engine._released = True
+
+
+def _sceneReplaced(before):
+    """After O.load or O.loadTmp replaced the scene (eigenmpm.state): our engines of the scene it
+    replaced (`before`, its O.engines), now in none, are marked `_sceneEnded`. Their default
+    labels are free again (params.freeLabel), and the next O.reset() releases them with the
+    scene's own, as if they had been in O.engines at that reset."""
+    now = {id(e) for e in O.engines}
+    for e in before:
+        if id(e) not in now and registered(e) is e:
+            e._sceneEnded = True
 
 
 def mpmEngines():

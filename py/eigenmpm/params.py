@@ -363,12 +363,20 @@ def values(params, kwargs, owner):
 
 
 # The live objects with a label (weakly: an object no one holds frees its label), for the
-# default labels. An object whose scene was reset is marked `_released` and frees its label too.
+# default labels. An engine whose scene was reset is marked `_released` and frees its label too,
+# as does an engine of a scene that a load replaced (`_sceneEnded`, engines._sceneReplaced),
+# unless it is in O.engines again.
 _labelled = weakref.WeakSet()
 
 
 def _labelsInUse():
-    return {o.label for o in list(_labelled) if not getattr(o, "_released", False)}
+    objs = list(_labelled)
+    ended = [getattr(o, "_released", False) or getattr(o, "_sceneEnded", False) for o in objs]
+    if any(ended):  # (only YADE's engines are released or ended)
+        from yade import O
+        scene = {id(e) for e in O.engines}
+        objs = [o for o, gone in zip(objs, ended) if not gone or id(o) in scene]
+    return {o.label for o in objs}
 
 
 def freeLabel(default):

@@ -7,7 +7,7 @@ import numpy as np
 from yade import O, PyRunner
 
 from . import parallel
-from .engines import ENGINE, _register, findEngine
+from .engines import ENGINE, _register, _releaseLabel, findEngine
 from .params import Param, apply, declare
 
 
@@ -42,6 +42,8 @@ class VTKRecorder(PyRunner):
 
         O.engines = [mpm, em.VTKRecorder(fileName='out/vtk/plate-', iterPeriod=500)]
     """
+
+    _release = _releaseLabel  # (O.reset(): the label is free again)
 
     params = (
         Param("label", "mpmVtk", "", "YADE label of the engine"),
@@ -214,6 +216,8 @@ class PlotRecorder(PyRunner):
         plot.saveDataTxt('out/energies.txt')
     """
 
+    _release = _releaseLabel  # (O.reset(): the label is free again)
+
     params = (
         Param("label", "mpmPlot", "", "YADE label of the engine"),
         ENGINE,
@@ -245,6 +249,8 @@ class Progress(PyRunner):
         O.engines = [mpm, em.Progress(endIter=20000, realPeriod=30)]
         O.run(20000, True)
     """
+
+    _release = _releaseLabel  # (O.reset(): the label is free again)
 
     params = (
         Param("label", "mpmProgress", "", "YADE label of the engine"),

@@ -30,7 +30,7 @@ import weakref
 import yade.wrapper
 from yade import O, PyRunner
 
-from . import _eigenmpm, parallel
+from . import _eigenmpm, parallel, params
 
 VERSION = 1
 TAG = "eigenmpm"
@@ -227,6 +227,8 @@ def restore(data):
         obj = placeholders[i]
         if kind == "engine":
             obj.__dict__.update(state)
+            if any(p.unique for p in getattr(type(obj), "params", ())):
+                params._labelled.add(obj)  # (its label is taken, as apply() does for a new engine)
             if hasattr(obj, "_restored"):
                 obj._restored()
             obj.command = _register(obj)
@@ -266,8 +268,15 @@ def _save(self, fileName, *args, **kw):
     return _original["save"](self, fileName, *args, **kw)
 
 
+def _sceneReplaced(before):
+    from .engines import _sceneReplaced as replaced
+    replaced(before)
+
+
 def _load(self, fileName, *args, **kw):
+    before = list(O.engines)
     result = _original["load"](self, fileName, *args, **kw)
+    _sceneReplaced(before)
     mark = _tags(self).get()
     if mark is None:
         _refuseOrphans(f"the file {fileName}")
@@ -295,7 +304,9 @@ def _saveTmp(self, mark="", *args, **kw):
 
 
 def _loadTmp(self, mark="", *args, **kw):
+    before = list(O.engines)
     result = _original["loadTmp"](self, mark, *args, **kw)
+    _sceneReplaced(before)
     tag = _tags(self).get()
     if tag is None:
         _refuseOrphans(f"the in-memory save {mark!r}")

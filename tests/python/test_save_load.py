@@ -494,3 +494,28 @@ def test_griffith_initiation_resumes_from_its_checkpoint_to_the_same_end_state(t
                             ["checkpoint-000000400", "checkpoint-000000800"], [])
     assert sa["initiation_ratio"] > 0.7 and sa["eroded_points"] >= 60
     assert (sa["resumed_from_iteration"], sb["resumed_from_iteration"]) == (0, 800)
+
+
+def test_a_load_ends_the_scene_it_replaces_its_engines_labels_and_state():
+    # The engines of the scene a load replaces are in no scene any more: their default labels
+    # are free, and the next O.reset() releases them as it releases the scene's own. (Engines
+    # that other tests built and dropped may still hold labels until the collector frees them.)
+    import gc
+    gc.collect()
+    plate(2, 1)
+    old = [e for e in O.engines if isinstance(e, (em.EigenErosion, em.PlotRecorder))]
+    labels = [e.label for e in old]
+    assert [label.rstrip("0123456789") for label in labels] == ["erosion", "mpmPlot"]
+    O.run(20, True)
+    O.saveTmp("replaced")
+    O.loadTmp("replaced")
+    # The loaded scene's engines hold the labels now, the replaced ones do not.
+    loaded = [e for e in O.engines if isinstance(e, (em.EigenErosion, em.PlotRecorder))]
+    assert [e.label for e in loaded] == labels and not any(a is b for a, b in zip(old, loaded))
+    assert em.EigenErosion(Gc=1.0, kappaOverH=1.1).label != labels[0]
+    O.reset()
+    gc.collect()
+    assert em.EigenErosion(Gc=1.0, kappaOverH=1.1).label == labels[0]
+    assert em.PlotRecorder(iterPeriod=5).label == labels[1]
+    with pytest.raises(RuntimeError, match="freed by O.reset"):
+        old[0].core.erodedCount
