@@ -125,10 +125,11 @@ struct NoGil {
 /// "Session 25"). keepThreadState() holds one more count on that state, so that it lives as long
 /// as the thread, and gives the count back when the thread ends.
 ///
-/// It holds only a state that the current call made (count 1, not the main thread's): a thread
-/// that Python started, or one that already holds a state of its own, is left alone. At the
-/// thread's end the count is given back only while the interpreter runs and the state is still
-/// the thread's (a Python thread deletes its own state when it ends).
+/// It holds only a state whose count is 1 and that is not the main thread's. A call that holds a
+/// state of its own around PyRunner (O.step() from a Python thread) has a count of 2 and is left
+/// alone. A thread that Python started and that calls it directly is held too: Python deletes
+/// that thread's state when the thread ends, whatever its count, and the destructor then finds
+/// no state and does nothing. The destructor also does nothing while the interpreter finalises.
 struct ThreadStateHold {
     bool held = false;
     ~ThreadStateHold()

@@ -209,7 +209,8 @@ def test_yade_run_thread_keeps_its_python_state_while_it_runs_and_gives_it_back(
     for _ in range(40):
         O.run(2, True)
     assert _settle(_eigenmpm.threadStates, before) == before
-    # The main thread's state is Python's own, and a Python thread deletes its own as it ends.
+    # The main thread's state is Python's own and is not held. A Python thread may be held, but
+    # Python deletes its state as it ends (and the hold's release then does nothing).
     assert not _eigenmpm.keepThreadState()
     worker = threading.Thread(target=_eigenmpm.keepThreadState)
     worker.start()
