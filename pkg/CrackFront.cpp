@@ -1,5 +1,6 @@
 #include "CrackFront.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -23,15 +24,32 @@ struct CellHash {
 
 /// The occupied cells of a set of points, numbered in order of first occupation, and the points
 /// of each (a counting sort: the points of cell c are ids[start[c] .. start[c + 1]), in row order).
+/// A cell is found through a dense table over the points' box of cells when that table is small
+/// (the usual crack: a few cells of size R across), else through a hash map (a point far from
+/// the others); the numbering is the same either way.
 class SparseCells {
 public:
     SparseCells(const double* x, long n, double size) : size_(size), cellOf_(n)
     {
-        index_.reserve(static_cast<std::size_t>(n));
+        std::vector<Cell> at(n);
+        for (long i = 0; i < n; ++i) at[i] = cellAt(x + 3 * i);
+        lo_ = hi_ = n ? at[0] : Cell{0, 0, 0};
+        for (const Cell& c : at)
+            for (int d = 0; d < 3; ++d) lo_[d] = std::min(lo_[d], c[d]), hi_[d] = std::max(hi_[d], c[d]);
+        // (extents in double: a far point must not overflow the product)
+        const double cells = double(hi_[0] - lo_[0] + 1) * double(hi_[1] - lo_[1] + 1) * double(hi_[2] - lo_[2] + 1);
+        dense_ = cells <= 8.0 * double(n) + 4096.0;
+        if (dense_)
+            table_.assign(static_cast<std::size_t>(cells), -1);
+        else
+            index_.reserve(static_cast<std::size_t>(n));
         for (long i = 0; i < n; ++i) {
-            const auto [it, added] = index_.emplace(cellAt(x + 3 * i), static_cast<int>(cells_.size()));
-            if (added) cells_.push_back(it->first);
-            cellOf_[i] = it->second;
+            int& slot = dense_ ? table_[slotOf(at[i])] : index_.emplace(at[i], -1).first->second;
+            if (slot < 0) {
+                slot = static_cast<int>(cells_.size());
+                cells_.push_back(at[i]);
+            }
+            cellOf_[i] = slot;
         }
         start_.assign(cells_.size() + 1, 0);
         for (long i = 0; i < n; ++i) ++start_[cellOf_[i] + 1];
@@ -48,6 +66,11 @@ public:
     /// The number of cell c (an offset from a cell), or -1 if no point occupies it.
     int find(const Cell& c) const
     {
+        if (dense_) {
+            for (int d = 0; d < 3; ++d)
+                if (c[d] < lo_[d] || c[d] > hi_[d]) return -1;
+            return table_[slotOf(c)];
+        }
         const auto it = index_.find(c);
         return it == index_.end() ? -1 : it->second;
     }
@@ -69,7 +92,17 @@ public:
     long id(long k) const { return ids_[k]; }
 
 private:
+    /// The dense table's entry of a cell inside the box lo_ .. hi_.
+    std::size_t slotOf(const Cell& c) const
+    {
+        const std::size_t nx = hi_[0] - lo_[0] + 1, ny = hi_[1] - lo_[1] + 1;
+        return (static_cast<std::size_t>(c[2] - lo_[2]) * ny + static_cast<std::size_t>(c[1] - lo_[1])) * nx
+               + static_cast<std::size_t>(c[0] - lo_[0]);
+    }
     double size_;
+    bool dense_ = false;
+    Cell lo_{}, hi_{};
+    std::vector<int> table_;
     std::unordered_map<Cell, int, CellHash> index_;
     std::vector<Cell> cells_;
     std::vector<int> cellOf_;
@@ -85,14 +118,16 @@ double squaredDistance(const double* a, const double* b)
 
 }  // namespace
 
-std::vector<char> mainCrack(const double* x, long n, const double* origin, double R)
+std::vector<char> mainCrack(const double* x, long n, const double* origin, double R, std::vector<double>* squared)
 {
     std::vector<char> main(n, 0);
+    if (squared) squared->resize(n);
     if (n == 0) return main;
     long start = 0;
     double nearest = std::numeric_limits<double>::infinity();
     for (long i = 0; i < n; ++i) {
         const double d = squaredDistance(x + 3 * i, origin);
+        if (squared) (*squared)[i] = d;
         if (d < nearest) {
             nearest = d;
             start = i;
@@ -121,16 +156,28 @@ std::vector<char> fartherWithin(const double* xm, const double* r, long nm, cons
 {
     std::vector<char> farther(nr, 0);
     if (nm == 0 || nr == 0) return farther;
+    // Only a point farther from the origin than the nearest of the xr can answer for any of
+    // them: the others (most of a crack, behind its front) are left out of the cells.
+    double nearest = std::numeric_limits<double>::infinity();
+    for (long i = 0; i < nr; ++i) nearest = rr[i] < nearest ? rr[i] : nearest;
+    std::vector<double> xs, rs;
+    for (long j = 0; j < nm; ++j)
+        if (r[j] > nearest) {
+            xs.insert(xs.end(), xm + 3 * j, xm + 3 * j + 3);
+            rs.push_back(r[j]);
+        }
+    const long ns = static_cast<long>(rs.size());
+    if (ns == 0) return farther;
     // Cells a hair wider than R: two points within R of each other then lie in neighbouring cells
     // whatever the rounding of x / size.
-    const SparseCells cells(xm, nm, R * (1.0 + 1e-6));
+    const SparseCells cells(xs.data(), ns, R * (1.0 + 1e-6));
     for (long i = 0; i < nr; ++i) {
         const double* p = xr + 3 * i;
         bool found = false;
         cells.forEachAround(cells.cellAt(p), [&](int c) {
             for (long k = cells.begin(c); !found && k < cells.end(c); ++k) {
                 const long j = cells.id(k);
-                found = r[j] > rr[i] && squaredDistance(xm + 3 * j, p) <= R2;
+                found = rs[j] > rr[i] && squaredDistance(xs.data() + 3 * j, p) <= R2;
             }
         });
         farther[i] = found;

@@ -17,7 +17,9 @@ namespace emp::crackfront {
 /// cell (floor(x / R) on each axis) is connected to the cell of the point nearest the origin (the
 /// first of the nearest in row order) through occupied cells that share a face, an edge or a
 /// corner. Empty for n = 0. R > 0.
-std::vector<char> mainCrack(const double* x, long n, const double* origin, double R);
+/// If `squared` is given, it receives each point's squared distance from the origin.
+std::vector<char> mainCrack(const double* x, long n, const double* origin, double R,
+                            std::vector<double>* squared = nullptr);
 
 /// For each of the nr points xr: whether a point j of the nm points xm lies within the squared
 /// distance R2 of it (|xm_j - xr_i|^2 <= R2) and farther from the origin (r[j] > rr[i], the

@@ -1343,6 +1343,37 @@ template <int D, class K> Eigen::Vector3d Solver<D, K>::angularMomentum() const
     return overRanks(dist_, l);
 }
 
+template <int D, class K> typename Solver<D, K>::Diagnostics Solver<D, K>::diagnostics() const
+{
+    // The four loops above fused: the same terms added in the same order to four sums.
+    const auto& P = points_;
+    const bool apic = settings_.transfer == Transfer::apic;
+    double kinetic = 0, elastic = 0;
+    Eigen::Vector3d momentum = Eigen::Vector3d::Zero(), angular = Eigen::Vector3d::Zero();
+    for (std::size_t p = 0; p < P.size(); ++p) {
+        const double m = P.mass(p);
+        kinetic += 0.5 * m * P.v[p].squaredNorm();
+        elastic += P.volume[p] * P.energy[p];
+        momentum.head<D>() += m * P.v[p];
+        Eigen::Vector3d x = Eigen::Vector3d::Zero(), v = Eigen::Vector3d::Zero();
+        x.head<D>() = P.x[p];
+        v.head<D>() = P.v[p];
+        Eigen::Vector3d lp = x.cross(v);
+        if (apic) {
+            Eigen::Matrix3d B = Eigen::Matrix3d::Zero();
+            B.topLeftCorner<D, D>() = P.affineVelocity[p];
+            lp += Eigen::Vector3d(B(2, 1) - B(1, 2), B(0, 2) - B(2, 0), B(1, 0) - B(0, 1));
+        }
+        angular += m * lp;
+    }
+    Diagnostics d;  // (one sum over the ranks each, as the four functions make them)
+    d.kinetic = overRanks(dist_, kinetic);
+    d.elastic = overRanks(dist_, elastic);
+    d.momentum = overRanks(dist_, momentum);
+    d.angularMomentum = overRanks(dist_, angular);
+    return d;
+}
+
 template <int D, class K> void Solver<D, K>::setVelocityGradient(int p, const Mat<D>& C)
 {
     require(settings_.transfer == Transfer::apic, "velocity gradient", "given with the FLIP transfer",

@@ -198,6 +198,14 @@ public:
     /// Total angular momentum about the origin: sum x_p x m_p v_p, plus APIC's affine part
     /// m_p eps:(B_p^T) (Kinematics.hpp); in 2D only z is non-zero.
     Eigen::Vector3d angularMomentum() const;
+    /// kineticEnergy, elasticEnergy, linearMomentum and angularMomentum from one pass over the
+    /// points (a record of all four reads the points once, not four times): each bitwise the
+    /// function's own, whose sum it forms in the same order (those stay the reference, tested).
+    struct Diagnostics {
+        double kinetic = 0, elastic = 0;
+        Eigen::Vector3d momentum = Eigen::Vector3d::Zero(), angularMomentum = Eigen::Vector3d::Zero();
+    };
+    Diagnostics diagnostics() const;
     Eigen::Vector3d reaction(int id) const { return velocityConditions_.at(id)->reaction; }
     double time() const { return time_; }
     void setTime(double t) { time_ = t; }

@@ -75,10 +75,14 @@ std::vector<int> toIntList(const bp::object& o)
 }
 
 /// Reads a float64 numpy array into a flat row-major vector after checking its shape.
+/// The name of an array's dtype, for an error (str(dtype) runs numpy's Python code: not on the
+/// way of a valid array).
+std::string dtypeName(const np::ndarray& a) { return bp::extract<std::string>(bp::str(a.get_dtype()))(); }
+
 std::vector<double> readArray(const np::ndarray& a, long rows, int cols, const char* what)
 {
-    require(a.get_dtype() == np::dtype::get_builtin<double>(), std::string(what) + " dtype",
-            bp::extract<std::string>(bp::str(a.get_dtype()))(), "float64");
+    if (!(a.get_dtype() == np::dtype::get_builtin<double>()))  // (the dtype's name made only for the error: it runs numpy's Python)
+        require(false, std::string(what) + " dtype", dtypeName(a), "float64");
     const int nd = a.get_nd();
     const long r = a.shape(0);
     const long c = nd > 1 ? a.shape(1) : 1;
@@ -231,13 +235,28 @@ struct BindCrackFront {
         for (std::size_t k = 0; k < m.size(); ++k) out[k] = m[k] != 0;
         return a;
     }
-    static np::ndarray mainCrack(const np::ndarray& x, bp::object origin, double R)
+    /// Which points x form the main crack (crackfront::mainCrack), their positions and their
+    /// squared distances from the origin: (mask, x[mask], r), r as numpy's
+    /// np.sum((x[mask] - origin) ** 2, axis=1) gives it.
+    static bp::tuple mainCrack(const np::ndarray& x, bp::object origin, double R)
     {
         require(std::isfinite(R) && R > 0, "R (cell size, m)", R, "R > 0");
         const long n = rowsOf(x, "x");
         const std::vector<double> xs = readArray(x, n, 3, "x");
         const Eigen::Vector3d o = toVec3(origin, "origin");
-        return mask(crackfront::mainCrack(xs.data(), n, o.data(), R));
+        std::vector<double> squared;
+        const std::vector<char> m = crackfront::mainCrack(xs.data(), n, o.data(), R, &squared);
+        long k = 0;
+        for (char c : m) k += c != 0;
+        np::ndarray xm = zeros(k, 3), r = zeros(k, 0);
+        auto* px = reinterpret_cast<double*>(xm.get_data());
+        auto* pr = reinterpret_cast<double*>(r.get_data());
+        for (long i = 0, j = 0; i < n; ++i)
+            if (m[i]) {
+                for (int d = 0; d < 3; ++d) px[3 * j + d] = xs[3 * i + d];
+                pr[j++] = squared[i];
+            }
+        return bp::make_tuple(mask(m), xm, r);
     }
     static np::ndarray fartherWithin(const np::ndarray& xm, const np::ndarray& r, const np::ndarray& xr,
                                      const np::ndarray& rr, double R, double R2)
@@ -254,7 +273,8 @@ struct BindCrackFront {
         bp::def("crackMain", &mainCrack, (bp::arg("x"), bp::arg("origin"), bp::arg("R")),
                 "Which points x (n x 3) belong to the crack grown from origin: those whose cells of size R "
                 "(floor(x / R)) connect, through cells sharing a face, an edge or a corner, to the cell of the "
-                "point nearest origin (a bool array).");
+                "point nearest origin. Returns (mask, x[mask], r): a bool array, the main crack's rows of x and "
+                "their squared distances from origin, summed over the axes in order as numpy's row sums.");
         bp::def("crackFartherWithin", &fartherWithin,
                 (bp::arg("xm"), bp::arg("r"), bp::arg("xr"), bp::arg("rr"), bp::arg("R"), bp::arg("R2")),
                 "For each row i of xr (n x 3): whether a row j of xm lies within squared distance R2 of it "
@@ -579,8 +599,8 @@ template <class Sv> struct Bind {
     /// each: the crack diagnostics read the eroded points without copying every point's position.
     static np::ndarray positionsAt(const Sv& s, const np::ndarray& indices)
     {
-        require(indices.get_dtype() == np::dtype::get_builtin<std::int64_t>(), "indices dtype",
-                bp::extract<std::string>(bp::str(indices.get_dtype()))(), "int64");
+        if (!(indices.get_dtype() == np::dtype::get_builtin<std::int64_t>()))
+            require(false, "indices dtype", dtypeName(indices), "int64");
         require(indices.get_nd() == 1, "indices dimensions", indices.get_nd(), "1");
         const long m = indices.shape(0), n = s.points().size();
         const char* base = indices.get_data();
@@ -826,6 +846,10 @@ template <class Sv> struct Bind {
             .def("externalWork", &Sv::externalWork)
             .def("linearMomentum", +[](const Sv& s) { return fromVec3(s.linearMomentum()); })
             .def("angularMomentum", +[](const Sv& s) { return fromVec3(s.angularMomentum()); })
+            .def("diagnostics", +[](const Sv& s) {
+                const auto d = s.diagnostics();
+                return bp::make_tuple(d.kinetic, d.elastic, fromVec3(d.momentum), fromVec3(d.angularMomentum));
+            })
             .def("velocityGradients", &velocityGradients)
             .def("deformationGradients", &deformationGradients)
             .def("setVelocityGradients", &setVelocityGradients, (bp::arg("ids"), bp::arg("gradients")))

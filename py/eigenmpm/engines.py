@@ -707,7 +707,11 @@ class MpmEngine(PyRunner):
         """The energies at one time level (the last step's t^n), J: kinetic 'Ek', elastic 'Ee',
         dissipated by the physics engines 'Ef' (eigenerosion, Eq 33), external work 'Wext', and
         'balance' = Ek + Ee + Ef - Wext, which a conservative scheme keeps at its initial value."""
-        ek, ee, w = self.kineticEnergyAtStep(), self.elasticEnergy(), self.externalWork()
+        return self._balance(self.elasticEnergy())
+
+    def _balance(self, ee):
+        """energyBalance with the elastic energy ee given (plotData has it from one pass)."""
+        ek, w = self.kineticEnergyAtStep(), self.externalWork()
         ef = sum(p.dissipatedEnergy() for p in self.physics.values() if hasattr(p, "dissipatedEnergy"))
         return {"Ek": ek, "Ee": ee, "Ef": ef, "Wext": w, "balance": ek + ee + ef - w}
 
@@ -718,10 +722,11 @@ class MpmEngine(PyRunner):
         total momentum 'Px', 'Py'[, 'Pz'] and angular momentum 'Lz' (2D) or 'Lx', 'Ly', 'Lz' (3D);
         the reaction force components (N) of every velocity condition; then the physics
         engines' own (EigenErosion: 'Ef', 'eroded', 'front')."""
-        L, b = self.label, self.energyBalance()
-        d = {f"{L}_Ek": self.kineticEnergy(), f"{L}_Ee": b["Ee"], f"{L}_EkStep": b["Ek"], f"{L}_Wext": b["Wext"],
+        # (the sums over the points in one pass: solver.diagnostics(), bitwise the four functions')
+        ek, ee, p, l = self.solver.diagnostics()
+        L, b = self.label, self._balance(ee)
+        d = {f"{L}_Ek": ek, f"{L}_Ee": b["Ee"], f"{L}_EkStep": b["Ek"], f"{L}_Wext": b["Wext"],
              f"{L}_balance": b["balance"]}
-        p, l = self.solver.linearMomentum(), self.solver.angularMomentum()
         for k in range(self.dim):
             d[f"{L}_P{'xyz'[k]}"] = p[k]
         for k in ((2,) if self.dim == 2 else (0, 1, 2)):

@@ -227,16 +227,18 @@ class EigenErosion(PyRunner):
     def _crack(self, mpm):
         """What the crack diagnostics of one moment share: (the events' times, the eroded points'
         positions (projected with throughAxis), the origin, which of them form the main crack,
-        their positions unprojected), or None before the first erosion. Under mpiexec only the
-        eroded points' positions travel between the ranks (parallel.positionsOf), not every
-        point's, and every rank must call it."""
+        their positions unprojected, the main crack's positions and their squared distances from
+        the origin), or None before the first erosion. Under mpiexec only the eroded points'
+        positions travel between the ranks (parallel.positionsOf), not every point's, and every
+        rank must call it."""
         ids = self.core.eventPoints() if self.core else np.zeros(0, np.int64)
         if not len(ids):
             return None
         raw = parallel.positionsOf(mpm, ids)
         x = self._inPlane(raw)
         origin = self._originPoint(x)
-        return self.core.eventTimes(), x, origin, self._mainCrack(x, origin), raw
+        main, xm, r = self._mainCrackPoints(x, origin)
+        return self.core.eventTimes(), x, origin, main, raw, xm, r
 
     def _tipsOf(self, mpm, crack):
         """tips() from a _crack() state. Whether a recent point has a farther neighbour within R
@@ -246,15 +248,14 @@ class EigenErosion(PyRunner):
         others, few, are merged in order."""
         if crack is None:
             return []
-        times, x, origin, main, _ = crack
+        times, x, origin, main, _, xm, r = crack
         window = self.tipWindow if self.tipWindow else 50 * O.dt
         recent = main & (times >= mpm.solver.time - window)
         if not np.any(recent):
             return []
         R = 6.0 * self.core.kappa
         R2 = R ** 2
-        xm, xr = x[main], x[recent]
-        r = np.sum((xm - origin) ** 2, axis=1)
+        xr = x[recent]
         rr = np.sum((xr - origin) ** 2, axis=1)
         farther = _eigenmpm.crackFartherWithin(xm, r, xr, rr, R, R2)
         order = np.argsort(-rr)
@@ -289,8 +290,7 @@ class EigenErosion(PyRunner):
     def _frontOf(crack):
         if crack is None:
             return 0.0
-        _, x, origin, main, _ = crack
-        return float(np.sqrt(np.max(np.sum((x[main] - origin) ** 2, axis=1))))
+        return float(np.sqrt(np.max(crack[6])))  # (the main crack's squared distances)
 
     def frontProfile(self, mpm=None):
         """The front through the thickness (needs throughAxis): the eroded points of the main
@@ -305,9 +305,9 @@ class EigenErosion(PyRunner):
         crack = self._crack(mpm)
         if crack is None:
             return np.array([]), np.array([])
-        _, x, origin, main, raw = crack
+        _, x, origin, main, raw, _, r2 = crack
         along = raw[main, "xyz".index(self.throughAxis)]
-        r = np.sqrt(np.sum((x[main] - origin) ** 2, axis=1))
+        r = np.sqrt(r2)
         layer = np.rint((along - along.min()) / (mpm.h / mpm.ppc)).astype(np.int64)
         keys = np.unique(layer)
         return np.array([along[layer == k].mean() for k in keys]), np.array([r[layer == k].max() for k in keys])
@@ -318,7 +318,13 @@ class EigenErosion(PyRunner):
         cells of size R = 6 kappa (the 3^3 cells around a cell; in 2D z = 0 throughout). Erosion
         elsewhere (under a support, a second crack) is left out of the tips and the front, so that
         it cannot make the front jump. The occupied cells are searched in C++
-        (``_eigenmpm.crackMain``: a flood fill over the occupied cells, kept in a hash map)."""
+        (``_eigenmpm.crackMain``: a flood fill over the occupied cells, found through a table of
+        the cells' box, or a hash map when that box is large)."""
+        return self._mainCrackPoints(x, origin)[0]
+
+    def _mainCrackPoints(self, x, origin):
+        """(_mainCrack's mask, the main crack's rows of x, their squared distances from the
+        origin), the distances bitwise np.sum((x[mask] - origin) ** 2, axis=1)."""
         return _eigenmpm.crackMain(np.ascontiguousarray(x, dtype=float), np.asarray(origin, dtype=float),
                                    6.0 * self.core.kappa)
 

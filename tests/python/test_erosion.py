@@ -519,3 +519,27 @@ def test_crack_diagnostics_are_those_of_their_plain_forms(dim, axis, seed):
             seed = int(rng.integers(len(x)))
             assert np.array_equal(em.fracture.linked(xp[:, :dim], seed, radius),
                                   _plainLinked(xp[:, :dim], seed, radius)), trial
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_crack_searches_far_from_the_rest_are_those_of_their_plain_forms(seed):
+    """The searches find their cells through a table over the points' box of cells, or through
+    a hash map when that box is far larger than the points (a point flung far off, a long
+    diagonal crack in 3D): both give the plain forms' answers. Here points on a diagonal and a far
+    cluster make the box huge, and the farther-neighbour search gets candidates on both sides."""
+    rng = np.random.default_rng(11 + seed)
+    s = 0.25e-3
+    R = 6.0 * 2.2 * s
+    diagonal = np.array([[i, i, i] for i in range(300)], float) * (0.4 * R)  # neighbours 0.69 R apart
+    far = 1e4 * R + rng.uniform(-2 * R, 2 * R, (30, 3))
+    x = np.concatenate([diagonal, far, rng.uniform(-3 * R, 3 * R, (40, 3))])
+    origin = np.zeros(3)
+    from eigenmpm import _eigenmpm
+    main, xm, r = _eigenmpm.crackMain(x, origin, R)
+    assert np.array_equal(main, _plainMainCrack(x, origin, R))
+    assert np.array_equal(xm, x[main]) and np.array_equal(r, np.sum((x[main] - origin) ** 2, axis=1))
+    rall = np.sum((x - origin) ** 2, axis=1)
+    pick = rng.choice(len(x), 25, replace=False)
+    got = _eigenmpm.crackFartherWithin(x, rall, x[pick], rall[pick], R, R * R)
+    plain = [np.any((rall > rall[k]) & (np.sum((x - x[k]) ** 2, axis=1) <= R * R)) for k in pick]
+    assert got.tolist() == plain and any(plain) and not all(plain)

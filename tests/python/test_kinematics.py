@@ -91,6 +91,40 @@ def test_plot_data_has_the_energy_balance_and_momenta_and_a_restart_continues_bi
     assert mpm.solver.kineticEnergyAtStep() == copy.kineticEnergyAtStep()
 
 
+@pytest.mark.parametrize("dim,transfer", [(2, "FLIP"), (2, "APIC"), (3, "FLIP"), (3, "APIC")])
+def test_plot_data_sums_the_points_in_one_pass_bitwise_as_the_four_diagnostics(dim, transfer):
+    """plotData's kinetic and elastic energy and momenta come from solver.diagnostics(), one pass
+    over the points: each exactly the value of its own function (kineticEnergy, elasticEnergy,
+    linearMomentum, angularMomentum), which stay the reference."""
+    O.reset()
+    h = 0.002
+    mpm = em.MpmEngine(dim=dim, h=h, transfer=transfer, label="blk")
+    hi = (0.02, 0.012, 0.006 if dim == 3 else 0)
+    ids = mpm.fill(pack.inAlignedBox((0, 0, 0), hi), em.ElasticMaterial(**GLASS))
+    x = mpm.solver.positions()
+    v = np.zeros((len(x), 3))
+    v[:, 0], v[:, 1] = 3.0 - 40.0 * x[:, 1], 1.0 + 70.0 * x[:, 0]  # a shear and a spin
+    if dim == 3:
+        v[:, 2] = 20.0 * x[:, 0] - 0.5
+    mpm.solver.setVelocities(np.ascontiguousarray(v))
+    if transfer == "APIC":
+        g = [[0, -40.0, 0], [70.0, 0, 0], [20.0, 0, 0]] if dim == 3 else [[0, -40.0], [70.0, 0]]
+        mpm.setVelocityGradient(ids, g)
+    O.engines = [mpm]
+    O.dt = 0.4 * mpm.criticalTimeStep()
+    O.run(7, True)
+    s = mpm.solver
+    ek, ee, p, l = s.diagnostics()
+    assert ek == s.kineticEnergy() and ee == s.elasticEnergy() and ee > 0
+    assert tuple(p) == tuple(s.linearMomentum()) and tuple(l) == tuple(s.angularMomentum())
+    d = mpm.plotData()
+    assert d["blk_Ek"] == s.kineticEnergy() and d["blk_Ee"] == s.elasticEnergy()
+    assert d["blk_balance"] == mpm.energyBalance()["balance"]
+    assert [d[f"blk_P{a}"] for a in "xyz"[:dim]] == list(s.linearMomentum())[:dim]
+    assert [d[f"blk_L{a}"] for a in ("z" if dim == 2 else "xyz")] == list(s.angularMomentum())[3 - (1 if dim == 2 else 3):]
+    assert all(abs(c) > 0 for c in l[3 - (1 if dim == 2 else 3):])
+
+
 def test_external_work_of_a_pulled_bar_balances_its_energy():
     """A bar pulled slowly at one end by a velocity condition (the other fixed): the work the
     condition does equals kinetic plus elastic energy at the same time level, within 2 %."""
