@@ -80,3 +80,26 @@ def test_the_lane_width_is_the_processors_and_can_be_set():
     with pytest.raises(ValueError, match="lanes = sse9 is invalid; allowed: 'auto', 'avx512', 'avx2' or 'baseline'"):
         em.setLaneIsa("sse9")
     em.setLaneIsa("auto")
+
+
+@pytest.mark.parametrize("name", ["_eigenmpm", "_eigenmpm_v2"])
+def test_the_module_exports_only_its_init_and_none_of_its_own_code(name):
+    """The module's symbols are hidden (CMakeLists.txt): it exports PyInit only, so that the
+    plugins YADE loads before it, which define the same Eigen and standard-library templates
+    compiled with other flags, cannot stand in for its own (the dynamic linker had bound its QR
+    solve to YADE's _minieigenHP). The standard library's templates keep default visibility;
+    -Bsymbolic-functions binds the module's calls to them to its own copies."""
+    path = os.path.join(ROOT, "build", "python", "eigenmpm", name + ".so")
+    if not os.path.exists(path):
+        pytest.skip(f"{name} is not built here")
+    r = subprocess.run(["nm", "-D", "-C", "--defined-only", path], capture_output=True, text=True, check=True)
+    exported = [line.split(" ", 2)[2] for line in r.stdout.splitlines() if line.count(" ") >= 2]
+    assert f"PyInit_{name}" in exported
+    ours = [s for s in exported if re.search(r"\bemp::|\bEigen::|boost::python::", s)]
+    assert ours == [], ours[:5]
+    # No call of the module goes through the PLT to a function it defines itself.
+    defined = set(subprocess.run(["nm", "-D", "--defined-only", "--format=just-symbols", path], capture_output=True,
+                                 text=True, check=True).stdout.split())
+    r = subprocess.run(["readelf", "-r", "--wide", path], capture_output=True, text=True, check=True)
+    slots = {line.split()[4].split("@")[0] for line in r.stdout.splitlines() if "JUMP_SLOT" in line}
+    assert slots and not slots & defined, sorted(slots & defined)[:5]
