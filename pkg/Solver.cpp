@@ -1324,22 +1324,31 @@ template <int D, class K> Eigen::Vector3d Solver<D, K>::linearMomentum() const
     return overRanks(dist_, m);
 }
 
+namespace {
+
+/// x_p x v_p, plus APIC's affine part eps_abc B_cb (apic): a point's angular momentum over its
+/// mass, the one term angularMomentum and diagnostics both sum.
+template <int D, class P> Eigen::Vector3d angularOfPoint(const P& points, std::size_t p, bool apic)
+{
+    Eigen::Vector3d x = Eigen::Vector3d::Zero(), v = Eigen::Vector3d::Zero();
+    x.head<D>() = points.x[p];
+    v.head<D>() = points.v[p];
+    Eigen::Vector3d lp = x.cross(v);
+    if (apic) {
+        Eigen::Matrix3d B = Eigen::Matrix3d::Zero();
+        B.topLeftCorner<D, D>() = points.affineVelocity[p];
+        lp += Eigen::Vector3d(B(2, 1) - B(1, 2), B(0, 2) - B(2, 0), B(1, 0) - B(0, 1));
+    }
+    return lp;
+}
+
+}  // namespace
+
 template <int D, class K> Eigen::Vector3d Solver<D, K>::angularMomentum() const
 {
     Eigen::Vector3d l = Eigen::Vector3d::Zero();
     const bool apic = settings_.transfer == Transfer::apic;
-    for (std::size_t p = 0; p < points_.size(); ++p) {
-        Eigen::Vector3d x = Eigen::Vector3d::Zero(), v = Eigen::Vector3d::Zero();
-        x.head<D>() = points_.x[p];
-        v.head<D>() = points_.v[p];
-        Eigen::Vector3d lp = x.cross(v);
-        if (apic) {  // m eps_abc B_cb
-            Eigen::Matrix3d B = Eigen::Matrix3d::Zero();
-            B.topLeftCorner<D, D>() = points_.affineVelocity[p];
-            lp += Eigen::Vector3d(B(2, 1) - B(1, 2), B(0, 2) - B(2, 0), B(1, 0) - B(0, 1));
-        }
-        l += points_.mass(p) * lp;
-    }
+    for (std::size_t p = 0; p < points_.size(); ++p) l += points_.mass(p) * angularOfPoint<D>(points_, p, apic);
     return overRanks(dist_, l);
 }
 
@@ -1355,16 +1364,7 @@ template <int D, class K> typename Solver<D, K>::Diagnostics Solver<D, K>::diagn
         kinetic += 0.5 * m * P.v[p].squaredNorm();
         elastic += P.volume[p] * P.energy[p];
         momentum.head<D>() += m * P.v[p];
-        Eigen::Vector3d x = Eigen::Vector3d::Zero(), v = Eigen::Vector3d::Zero();
-        x.head<D>() = P.x[p];
-        v.head<D>() = P.v[p];
-        Eigen::Vector3d lp = x.cross(v);
-        if (apic) {
-            Eigen::Matrix3d B = Eigen::Matrix3d::Zero();
-            B.topLeftCorner<D, D>() = P.affineVelocity[p];
-            lp += Eigen::Vector3d(B(2, 1) - B(1, 2), B(0, 2) - B(2, 0), B(1, 0) - B(0, 1));
-        }
-        angular += m * lp;
+        angular += m * angularOfPoint<D>(P, p, apic);
     }
     Diagnostics d;  // (one sum over the ranks each, as the four functions make them)
     d.kinetic = overRanks(dist_, kinetic);

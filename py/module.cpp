@@ -74,14 +74,14 @@ std::vector<int> toIntList(const bp::object& o)
     return out;
 }
 
-/// Reads a float64 numpy array into a flat row-major vector after checking its shape.
 /// The name of an array's dtype, for an error (str(dtype) runs numpy's Python code: not on the
 /// way of a valid array).
 std::string dtypeName(const np::ndarray& a) { return bp::extract<std::string>(bp::str(a.get_dtype()))(); }
 
+/// Reads a float64 numpy array into a flat row-major vector after checking its shape.
 std::vector<double> readArray(const np::ndarray& a, long rows, int cols, const char* what)
 {
-    if (!(a.get_dtype() == np::dtype::get_builtin<double>()))  // (the dtype's name made only for the error: it runs numpy's Python)
+    if (!(a.get_dtype() == np::dtype::get_builtin<double>()))
         require(false, std::string(what) + " dtype", dtypeName(a), "float64");
     const int nd = a.get_nd();
     const long r = a.shape(0);
