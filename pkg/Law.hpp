@@ -22,6 +22,14 @@
 //       branches; the solver then evaluates the law for runs of points in one vectorised loop
 //       (Solver::lawOfRun2, and with the co-rotational update Solver::corotationalOfRun2). It
 //       must give bitwise what response<2> gives (tested for every law).
+//   static void response3(double xx, double yy, double zz, double yx, double zx, double zy,
+//                         double c, double lambda, double mu, double& sxx, double& syy,
+//                         double& szz, double& syx, double& szx, double& szy,
+//                         double& psiPlus, double& psiMinus, bool& ordinary);
+//       the same in 3D for a symmetric strain (its lower triangle in, the stress's out); the
+//       solver's 3D stress pass then runs the law for runs of points (Solver::lawOfRun3) and
+//       takes a point whose `ordinary` is false through response<3> (a law may need a scaling or
+//       a branch for rare strains). Bitwise response<3> where ordinary (tested for every law).
 #pragma once
 #include <type_traits>
 
@@ -61,6 +69,11 @@ template <int D> inline double strainEnergy(const Mat<D>& eps, double lambda, do
 /// Whether law L offers the optional pointwise 2D response (response2).
 template <class L, class = void> struct HasResponse2 : std::false_type {};
 template <class L> struct HasResponse2<L, std::void_t<decltype(&L::response2)>> : std::true_type {};
+/// Whether law L offers the optional pointwise 3D response (response3).
+template <class L, class = void> struct HasResponse3 : std::false_type {};
+template <class L> struct HasResponse3<L, std::void_t<decltype(&L::response3)>> : std::true_type {};
+/// Whether law L offers the pointwise response of dimension D.
+template <int D, class L> constexpr bool hasPointwiseResponse = D == 2 ? HasResponse2<L>::value : HasResponse3<L>::value;
 
 inline double positivePart(double x) { return x > 0 ? x : 0.0; }
 inline double negativePart(double x) { return x < 0 ? x : 0.0; }

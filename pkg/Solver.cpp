@@ -344,8 +344,11 @@ template <int D, class K> EMP_ALWAYS_INLINE void Solver<D, K>::lawOfRun(const in
     // response (Law.hpp, response2), the law runs as one vectorised loop over the run: each lane
     // takes one point through the same operations, so the results are bitwise those of lawAt,
     // while the points' square roots and divisions go through the processor side by side.
-    if constexpr (D == 2)
+    if constexpr (D == 2) {
         if (withSharedPointwiseLaw(ids, n, [&](auto l) { lawOfRun2<decltype(l)>(ids, n); })) return;
+    } else {
+        if (withSharedPointwiseLaw(ids, n, [&](auto l) { lawOfRun3<decltype(l)>(ids, n); })) return;
+    }
     for (int i = 0; i < n; ++i) lawAt(ids[i]);
 }
 
@@ -361,7 +364,7 @@ EMP_ALWAYS_INLINE bool Solver<D, K>::withSharedPointwiseLaw(const int* ids, int 
     bool done = false;
     if (same)
         withLaw(law, [&](auto l) {
-            if constexpr (HasResponse2<decltype(l)>::value) {
+            if constexpr (hasPointwiseResponse<D, decltype(l)>) {
                 f(l);
                 done = true;
             }
@@ -397,6 +400,57 @@ EMP_ALWAYS_INLINE void Solver<D, K>::lawOfRun2(const int* ids, int n)
         P.stress[p] = Sym2::of(sigma[0][i], sigma[1][i], sigma[2][i], sigma[3][i]);
         P.energy[p] = c[i] * psiPlus[i] + psiMinus[i];
         P.history[p] = std::max(P.history[p], psiPlus[i]);
+    }
+}
+
+template <int D, class K>
+template <class Law>
+EMP_ALWAYS_INLINE void Solver<D, K>::lawOfRun3(const int* ids, int n)
+{
+    // lawOfRun2 in 3D: the run's symmetric strains (lower triangles) through the law's response3
+    // in one vectorised loop; a point it calls not ordinary (Law.hpp) through lawAt, which gives
+    // it bitwise what the loop gives the others.
+    if constexpr (D == 3) {
+        auto& P = points_;
+        alignas(64) double e[6][stressRun], c[stressRun], lambda[stressRun], mu[stressRun];
+        alignas(64) double sigma[6][stressRun], psiPlus[stressRun], psiMinus[stressRun];
+        alignas(64) double ordinary[stressRun];  // (1 or 0: a bool array is not vectorised)
+        for (int i = 0; i < n; ++i) {  // the run's points in structure-of-arrays form
+            const int p = ids[i];
+            const Mat<3>& E = P.strain[p];
+            e[0][i] = E(0, 0);
+            e[1][i] = E(1, 1);
+            e[2][i] = E(2, 2);
+            e[3][i] = E(1, 0);
+            e[4][i] = E(2, 0);
+            e[5][i] = E(2, 1);
+            c[i] = P.damage[p];
+            const ElasticMaterial& m = materials_[P.material[p]];
+            lambda[i] = m.lambda;
+            mu[i] = m.mu;
+        }
+        forLanes(n, [&](int i) EMP_LAMBDA_INLINE {
+            bool ok;
+            Law::response3(e[0][i], e[1][i], e[2][i], e[3][i], e[4][i], e[5][i], c[i], lambda[i], mu[i], sigma[0][i],
+                           sigma[1][i], sigma[2][i], sigma[3][i], sigma[4][i], sigma[5][i], psiPlus[i], psiMinus[i], ok);
+            ordinary[i] = ok ? 1.0 : 0.0;
+        });
+        for (int i = 0; i < n; ++i) {
+            const int p = ids[i];
+            if (ordinary[i] != 1.0) {
+                lawAt(p);
+                continue;
+            }
+            Mat<3>& S = P.stress[p];
+            S(0, 0) = sigma[0][i];
+            S(1, 1) = sigma[1][i];
+            S(2, 2) = sigma[2][i];
+            S(1, 0) = S(0, 1) = sigma[3][i];
+            S(2, 0) = S(0, 2) = sigma[4][i];
+            S(2, 1) = S(1, 2) = sigma[5][i];
+            P.energy[p] = c[i] * psiPlus[i] + psiMinus[i];
+            P.history[p] = std::max(P.history[p], psiPlus[i]);
+        }
     }
 }
 

@@ -266,10 +266,12 @@ private:
     void updateStrain(int p, const St& st, double dt);
     /// The law at point p: stress, psi+, psi-, history.
     void lawAt(int p);
-    /// The law at the n <= stressRun points ids (lawAt for each, or lawOfRun2).
+    /// The law at the n <= stressRun points ids (lawAt for each, or lawOfRun2 / lawOfRun3).
     void lawOfRun(const int* ids, int n);
     /// The law at n points at once, through the law's pointwise 2D response (Law.hpp).
     template <class Law> void lawOfRun2(const int* ids, int n);
+    /// The same in 3D (response3); the points it calls not ordinary through lawAt.
+    template <class Law> void lawOfRun3(const int* ids, int n);
     /// The co-rotational update's stress of point p from its deformation gradient (Kinematics.hpp).
     void corotationalStress(int p);
     /// The co-rotational update of the n <= stressRun points ids with stencils st (point by
@@ -282,8 +284,8 @@ private:
     /// vectorised loops on plain numbers (Kinematics.hpp, Plain3), the law point by point.
     /// Bitwise the per-point update.
     void corotationalOfRun3(const int* ids, const St* st, int n, double dt);
-    /// When the n points ids share a law with the pointwise 2D response (Law.hpp, response2):
-    /// f(law) and true; otherwise false.
+    /// When the n points ids share a law with the pointwise response of dimension D (Law.hpp,
+    /// response2 or response3): f(law) and true; otherwise false.
     template <class F> bool withSharedPointwiseLaw(const int* ids, int n, F&& f);
     /// The Cauchy stress R s U R^T / J of a co-rotated stress s at point p's deformation gradient.
     Mat<D> spatialStress(int p, const Mat<D>& s) const;

@@ -74,73 +74,158 @@ struct SpectralSplit {
         syy = c * (lp * 1.0 + twoMu * pyy) + (lm * 1.0 + twoMu * (eyy - pyy));
     }
 
-    static void tensilePart(const Mat<3>& e, Vec<3>& l, Mat<3>& ep)
+    /// Whether the 3D tensile part takes a strain whose largest entry (in magnitude) is amax
+    /// directly: its squares and products neither underflow nor overflow. Others (strains far
+    /// below 1e-154 at the leading edge of a wave in a 3D block: 1e-167 and, at a finer h,
+    /// subnormal 1e-316 measured) are scaled by a power of two to order 1 and back, which is exact
+    /// in binary floating point and gives bitwise what the direct path would. A NaN strain is
+    /// ordinary (its NaN reaches the stress, which the step's check reports).
+    EMP_ALWAYS_INLINE static bool ordinary3(double amax) { return !(amax >= 1e100) & !((amax > 0) & (amax <= 1e-100)); }
+
+    /// The 3D tensile part (Eq 5) of a symmetric strain given by its lower triangle, on plain
+    /// numbers and without branches, so that the solver evaluates it for several points at once
+    /// in a vectorised loop (response3): principal strains l0, l1, l2 (a set, in no order) and
+    /// eps+ = (pxx, pyx, pzx; pyx, pyy, pzy; pzx, pzy, pzz). For an ordinary3 strain.
+    ///
+    /// No eigenvectors and no trigonometric function. With q = tr/3 and p^2 = |e - q I|^2 / 6,
+    /// B = (e - q I) / p has the principal values 2 cos(phi + 2 pi j / 3), cos(3 phi) = det(B)/2 =
+    /// r. The value farther from the other two (the largest for r > 0, else the smallest) is
+    /// beta_k = +-2 c with c the largest root of 4 c^3 - 3 c = |r|, c in [sqrt(3)/2, 1]: four Newton
+    /// steps from the chord c = sqrt(3)/2 + (1 - sqrt(3)/2) |r| reach it to round-off for every r
+    /// (three do; measured against cos(acos(|r|)/3) on 2e5 values). Its value l_k = q + p beta_k is
+    /// accurate to round-off of the deviator, and so is its spectral projector, which needs no
+    /// other value: the other two are the roots of beta^2 + beta_k beta + beta_k^2 - 3 (trace 0,
+    /// tr(B^2) = 6), so P_k = (B^2 + beta_k B + (beta_k^2 - 3) I) / (3 (beta_k^2 - 1)), with a
+    /// denominator between 6 and 9. The other pair lives in the plane Q = I - P_k as e - l_k P_k;
+    /// its values m -+ s come from its trace and the norm of its deviator in the plane, with no
+    /// cancellation, so a repeated pair (even at zero) is split exactly.
+    EMP_ALWAYS_INLINE static void tensilePart3(double xx, double yy, double zz, double yx, double zx, double zy,
+                                               double& l0, double& l1, double& l2, double& pxx, double& pyy,
+                                               double& pzz, double& pyx, double& pzx, double& pzy, bool& allTensile,
+                                               bool& allCompressive)
     {
-        // Eigenvalues in closed form (no eigenvectors). They are accurate to round-off of the
-        // deviator except within a nearly repeated pair, whose two values can be off by ~1e-8 of
-        // the deviator while their sum stays exact.
-        Eigen::SelfAdjointEigenSolver<Mat<3>> es;
-        es.computeDirect(e, Eigen::EigenvaluesOnly);
-        l = es.eigenvalues();  // ascending
-        const double spread = l(2) - l(0);
-        if (!(spread > 0)) {  // e = l I exactly
-            if (l(0) >= 0) ep = e; else ep.setZero();
-            return;
-        }
-        // All principal strains clearly of one sign (by much more than that error): Eq 5 directly.
-        const double margin = 1e-6 * spread;
-        if (l(0) >= margin) {
-            ep = e;
-            return;
-        }
-        if (l(2) <= -margin) {
-            ep.setZero();
-            return;
-        }
-        // Mixed or nearly zero principal strains. The products in mixedSigns square the strains:
-        // strains far below 1e-154 (the leading edge of a wave in a 3D block: 1e-167 and, at a
-        // finer h, subnormal 1e-316 measured) would underflow its projector's denominator to 0.
-        // Such strains are scaled by a power of two to order 1 and back: exact in binary floating
-        // point. Strains of ordinary size take the direct path (the scaling costs 6 % of a 3D
-        // step), with bitwise the results either path would give.
-        const double size = std::max(-l(0), l(2));
-        if (size > 1e-100 && size < 1e100) {
-            mixedSigns(e, l, ep);
-            return;
-        }
-        int exponent = 0;
-        std::frexp(e.cwiseAbs().maxCoeff(), &exponent);
-        const int half = -exponent / 2;  // 2^1049 for a subnormal: two finite factors
-        const double down1 = std::ldexp(1.0, half), down2 = std::ldexp(1.0, -exponent - half);
-        const double up = std::ldexp(1.0, exponent);
-        l = (down1 * l) * down2;
-        mixedSigns((down1 * e) * down2, l, ep);
-        ep *= up;
-        l *= up;
+        const double tr = xx + (yy + zz), q = tr / 3.0;
+        const double a = xx - q, b = yy - q, c = zz - q;
+        const double p = std::sqrt(((a * a + b * b) + c * c + 2.0 * ((yx * yx + zx * zx) + zy * zy)) / 6.0);
+        const bool isotropic = !(p > 0);  // e = q I (or NaN)
+        const double ip = 1.0 / (isotropic ? 1.0 : p);
+        const double ba = a * ip, bb = b * ip, bc = c * ip, byx = yx * ip, bzx = zx * ip, bzy = zy * ip;
+        const double det = ba * (bb * bc - bzy * bzy) - byx * (byx * bc - bzy * bzx) + bzx * (byx * bzy - bb * bzx);
+        const double h = 0.5 * det, r = h > 1.0 ? 1.0 : h < -1.0 ? -1.0 : h;
+        const double ar = r < 0 ? -r : r;
+        // (Written out: a loop left inside the lanes' loop keeps GCC from vectorising it.)
+        const auto newton = [ar](double x) EMP_LAMBDA_INLINE { return x - ((4.0 * x * x - 3.0) * x - ar) / (12.0 * x * x - 3.0); };
+        const double cs = newton(newton(newton(newton(0.8660254037844386 + 0.1339745962155614 * ar))));
+        const double beta = r > 0 ? 2.0 * cs : -2.0 * cs;
+        const double lk = q + p * beta;
+        const double k0 = beta * beta - 3.0, id = 1.0 / (3.0 * (beta * beta - 1.0));
+        const double Pxx = (((ba * ba + byx * byx) + bzx * bzx) + beta * ba + k0) * id;
+        const double Pyy = (((byx * byx + bb * bb) + bzy * bzy) + beta * bb + k0) * id;
+        const double Pzz = (((bzx * bzx + bzy * bzy) + bc * bc) + beta * bc + k0) * id;
+        const double Pyx = (((byx * ba + bb * byx) + bzy * bzx) + beta * byx) * id;
+        const double Pzx = (((bzx * ba + bzy * byx) + bc * bzx) + beta * bzx) * id;
+        const double Pzy = (((bzx * byx + bzy * bb) + bc * bzy) + beta * bzy) * id;
+        // The pair: e - l_k P_k (its part in the plane) and its deviator there, minus m (I - P_k).
+        const double Bxx = xx - lk * Pxx, Byy = yy - lk * Pyy, Bzz = zz - lk * Pzz;
+        const double Byx = yx - lk * Pyx, Bzx = zx - lk * Pzx, Bzy = zy - lk * Pzy;
+        const double m = 0.5 * (tr - lk);
+        const double Dxx = Bxx - m * (1.0 - Pxx), Dyy = Byy - m * (1.0 - Pyy), Dzz = Bzz - m * (1.0 - Pzz);
+        const double Dyx = Byx + m * Pyx, Dzx = Bzx + m * Pzx, Dzy = Bzy + m * Pzy;
+        const double s = std::sqrt(0.5 * ((Dxx * Dxx + Dyy * Dyy) + Dzz * Dzz + 2.0 * ((Dyx * Dyx + Dzx * Dzx) + Dzy * Dzy)));
+        const double lminus = m - s, lplus = m + s;
+        // All principal strains clearly of one sign: eps+ = e or 0; else <l_k>+ P_k plus the
+        // pair's positive part: all of it, lplus times the projector on its vector
+        // (B - lminus Q) / (2 s), or none. (The quotients of the unused cases are never read.)
+        const double lmin = lk < lminus ? lk : lminus, lmax = lk > lplus ? lk : lplus;
+        const double margin = 1e-6 * (lmax - lmin);
+        allTensile = (isotropic & (q >= 0)) | (!isotropic & (lmin >= margin));
+        allCompressive = (isotropic & !(q >= 0)) | (!isotropic & (lmax <= -margin));
+        const double pk = positivePart(lk);
+        const bool whole = lminus >= 0, part = !whole & (lplus > 0);
+        const double t = part ? lplus / (2.0 * s) : 0.0;
+        const auto pick = [&](double e, double P, double B, double Q) EMP_LAMBDA_INLINE {
+            const double pair = whole ? B : t * (B - lminus * Q);
+            return allTensile ? e : allCompressive ? 0.0 : pk * P + pair;
+        };
+        pxx = pick(xx, Pxx, Bxx, 1.0 - Pxx);
+        pyy = pick(yy, Pyy, Byy, 1.0 - Pyy);
+        pzz = pick(zz, Pzz, Bzz, 1.0 - Pzz);
+        pyx = pick(yx, Pyx, Byx, 0.0 - Pyx);
+        pzx = pick(zx, Pzx, Bzx, 0.0 - Pzx);
+        pzy = pick(zy, Pzy, Bzy, 0.0 - Pzy);
+        l0 = isotropic ? q : lk;
+        l1 = isotropic ? q : lminus;
+        l2 = isotropic ? q : lplus;
     }
 
-    /// Eq 5 for principal strains l (ascending) of mixed or nearly zero signs; l becomes the set of
-    /// principal strains it used. The eigenvalue l_k farther from the other two is accurate, and so
-    /// is its spectral projector P_k = (e - l_a I)(e - l_b I)/((l_k - l_a)(l_k - l_b)) (the pair's
-    /// errors cancel to second order). The pair lives in the plane Q = I - P_k as B = e - l_k P_k;
-    /// its values m -+ r come from the trace and the norm of B's deviator in the plane, with no
-    /// cancellation, so a repeated pair (even at zero) is split exactly.
-    static void mixedSigns(const Mat<3>& e, Vec<3>& l, Mat<3>& ep)
+    /// Principal strains l (a set) and the tensile part eps+ (Eq 5) in 3D: tensilePart3 of the
+    /// strain's lower triangle, scaled to order 1 and back where it is not ordinary3. A strain
+    /// that is not quite symmetric (R k R^T rounded) keeps its upper triangle where eps+ is all
+    /// of it, so that a tensile strain has no compressive part at all; elsewhere eps+ is the
+    /// lower triangle's, mirrored.
+    static void tensilePart(const Mat<3>& e, Vec<3>& l, Mat<3>& ep)
     {
-        const int k = l(1) - l(0) >= l(2) - l(1) ? 0 : 2, a = k == 0 ? 1 : 0, b = k == 0 ? 2 : 1;
-        const Mat<3> I = Mat<3>::Identity();
-        const Mat<3> Pk = (e - l(a) * I) * (e - l(b) * I) / ((l(k) - l(a)) * (l(k) - l(b)));
-        const Mat<3> Q = I - Pk;
-        const Mat<3> B = e - l(k) * Pk;
-        const double m = 0.5 * (e.trace() - l(k));
-        const double r = std::sqrt(0.5 * (B - m * Q).squaredNorm());
-        const double lminus = m - r, lplus = m + r;
-        ep = positivePart(l(k)) * Pk;
-        if (lminus >= 0)
-            ep += B;
-        else if (lplus > 0)
-            ep += (lplus / (2.0 * r)) * (B - lminus * Q);  // lplus times the projector on its vector
-        l << l(k), lminus, lplus;  // only the set of values is used below
+        double xx = e(0, 0), yy = e(1, 1), zz = e(2, 2), yx = e(1, 0), zx = e(2, 0), zy = e(2, 1);
+        const double amax = largest3(xx, yy, zz, yx, zx, zy);
+        double up = 1.0;
+        if (!ordinary3(amax) && std::isfinite(amax)) {
+            int exponent = 0;
+            std::frexp(amax, &exponent);
+            const int half = -exponent / 2;  // 2^1049 for a subnormal: two finite factors
+            const double down1 = std::ldexp(1.0, half), down2 = std::ldexp(1.0, -exponent - half);
+            up = std::ldexp(1.0, exponent);
+            for (double* x : {&xx, &yy, &zz, &yx, &zx, &zy}) *x = (down1 * *x) * down2;
+        }
+        double pxx, pyy, pzz, pyx, pzx, pzy;
+        bool allTensile, allCompressive;
+        tensilePart3(xx, yy, zz, yx, zx, zy, l(0), l(1), l(2), pxx, pyy, pzz, pyx, pzx, pzy, allTensile, allCompressive);
+        ep << pxx, pyx, pzx, pyx, pyy, pzy, pzx, pzy, pzz;
+        if (up != 1.0) {
+            ep *= up;
+            l *= up;
+        }
+        if (allTensile) ep = e;
+    }
+
+    /// The largest magnitude of six numbers, or NaN if one is NaN (for ordinary3).
+    EMP_ALWAYS_INLINE static double largest3(double xx, double yy, double zz, double yx, double zx, double zy)
+    {
+        const auto larger = [](double m, double x) EMP_LAMBDA_INLINE {
+            const double a = std::fabs(x);
+            return a > m || a != a ? a : m;
+        };
+        return larger(larger(larger(larger(larger(std::fabs(xx), yy), zz), yx), zx), zy);
+    }
+
+    /// The 3D response on plain numbers (Law.hpp, "pointwise 3D response"): at a symmetric strain
+    /// (lower triangle) and damage c, the stress c sigma+ + sigma- (lower triangle), psi+ and
+    /// psi-. Bitwise response<3> followed by the solver's degradation, for an ordinary3 strain
+    /// (`ordinary` tells; the solver takes the others point by point).
+    EMP_ALWAYS_INLINE static void response3(double xx, double yy, double zz, double yx, double zx, double zy, double c,
+                                            double lambda, double mu, double& sxx, double& syy, double& szz,
+                                            double& syx, double& szx, double& szy, double& psiPlus,
+                                            double& psiMinus, bool& ordinary)
+    {
+        ordinary = ordinary3(largest3(xx, yy, zz, yx, zx, zy));
+        double l0, l1, l2, pxx, pyy, pzz, pyx, pzx, pzy;
+        bool allTensile, allCompressive;
+        tensilePart3(xx, yy, zz, yx, zx, zy, l0, l1, l2, pxx, pyy, pzz, pyx, pzx, pzy, allTensile, allCompressive);
+        const double tr = xx + (yy + zz);
+        // (As response<3>'s loop, written out.)
+        const double sp2 = ((0.0 + positivePart(l0) * positivePart(l0)) + positivePart(l1) * positivePart(l1)) +
+                           positivePart(l2) * positivePart(l2);
+        const double sm2 = ((0.0 + negativePart(l0) * negativePart(l0)) + negativePart(l1) * negativePart(l1)) +
+                           negativePart(l2) * negativePart(l2);
+        psiPlus = 0.5 * lambda * positivePart(tr) * positivePart(tr) + mu * sp2;   // Eq 3
+        psiMinus = 0.5 * lambda * negativePart(tr) * negativePart(tr) + mu * sm2;  // Eq 4
+        // Eq 7: lambda <tr>+- I + 2 mu eps+-, the identity's zeros multiplied as in response<3>.
+        const double lp = lambda * positivePart(tr), lm = lambda * negativePart(tr), twoMu = 2.0 * mu;
+        sxx = c * (lp * 1.0 + twoMu * pxx) + (lm * 1.0 + twoMu * (xx - pxx));
+        syy = c * (lp * 1.0 + twoMu * pyy) + (lm * 1.0 + twoMu * (yy - pyy));
+        szz = c * (lp * 1.0 + twoMu * pzz) + (lm * 1.0 + twoMu * (zz - pzz));
+        syx = c * (lp * 0.0 + twoMu * pyx) + (lm * 0.0 + twoMu * (yx - pyx));
+        szx = c * (lp * 0.0 + twoMu * pzx) + (lm * 0.0 + twoMu * (zx - pzx));
+        szy = c * (lp * 0.0 + twoMu * pzy) + (lm * 0.0 + twoMu * (zy - pzy));
     }
 
     template <int D> EMP_ALWAYS_INLINE static LawResponse<D> response(const Mat<D>& eps, const ElasticMaterial& mat)
@@ -150,7 +235,7 @@ struct SpectralSplit {
         Mat<D> ep;
         tensilePart(eps, l, ep);
         const Mat<D> em = eps - ep;  // Eq 6
-        const double tr = eps.trace();
+        const double tr = D == 2 ? eps.trace() : eps(0, 0) + (eps(1, 1) + eps(D - 1, D - 1));  // (as response3)
         double sp2 = 0, sm2 = 0;  // tr(eps+^2), tr(eps-^2) from the principal strains
         for (int i = 0; i < D; ++i) {
             sp2 += positivePart(l(i)) * positivePart(l(i));

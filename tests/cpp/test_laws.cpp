@@ -9,6 +9,7 @@
 //   - an eroded point keeps sigma-, which never pulls (negative semi-definite for nu >= 0);
 //   - in the solver: the patch test (a homogeneous strain gives the law's stress at every
 //     point) and a compressed block with a tiny Gc never erodes when the law promises it.
+#include <algorithm>
 #include <type_traits>
 #include <vector>
 
@@ -232,6 +233,71 @@ TYPED_TEST(LawTest, PointwiseResponseIsBitwiseTheResponse2D)
     }
 }
 
+/// Symmetric 3D strains for the pointwise response: random ones at several scales (1e-200 and
+/// 1e120 are not SpectralSplit::ordinary3), strains with repeated and zero principal values, and
+/// special numbers.
+std::vector<Mat<3>> testStrains3D(std::mt19937& rng)
+{
+    std::vector<Mat<3>> out;
+    const double scales[] = {1e-3, 1.0, 1e-200, 1e120, 1e-120};
+    for (int i = 0; i < 3000; ++i) out.push_back(emptest::randomSymmetric<3>(rng, scales[i % 5]));
+    const double a = 1.3e-3, b = 0.7e-3;
+    const std::vector<Vec<3>> principal = {{a, a, -b}, {a, -b, -b}, {a, a, a}, {-b, -b, -b}, {a, 0.0, -b}, {a, a, 0.0},
+                                           {0.0, 0.0, -b}, {0.0, 0.0, 0.0}, {a, a * (1 + 1e-12), -b}, {a, a, -2 * a}};
+    for (const Vec<3>& k : principal)
+        for (int r = 0; r < 10; ++r) {
+            const Mat<3> R = emptest::randomRotation<3>(rng);
+            const Mat<3> e = R * k.asDiagonal() * R.transpose();
+            out.push_back(0.5 * (e + e.transpose()));
+        }
+    Mat<3> e = Mat<3>::Zero();
+    for (double d : {-0.0, 2.0, -1e-300}) {
+        e.setConstant(-0.0);
+        e.diagonal().setConstant(d);
+        out.push_back(e);
+    }
+    return out;
+}
+
+TYPED_TEST(LawTest, PointwiseResponseIsBitwiseTheResponse3D)
+{
+    // response3 (Law.hpp) is what the solver's 3D stress pass evaluates for runs of points; a
+    // point it calls not ordinary goes through response<3>, which every other stage uses. Where
+    // ordinary, the two must agree to the last bit.
+    if constexpr (!emp::HasResponse3<TypeParam>::value) {
+        GTEST_SKIP() << TypeParam::name << " has no pointwise 3D response";
+    } else {
+        std::mt19937 rng(31);
+        const auto strains = testStrains3D(rng);
+        int ordinary = 0, other = 0;
+        for (std::size_t i = 0; i < strains.size(); ++i) {
+            const ElasticMaterial m = material(rng, kCases[0]);
+            const Mat<3>& e = strains[i];
+            const double c = i % 4 == 0 ? 0.0 : i % 4 == 1 ? 1.0 : std::uniform_real_distribution<double>(0, 1)(rng);
+            const auto r = TypeParam::template response<3>(e, m);
+            const Mat<3> sigma = c * r.sigmaPlus + r.sigmaMinus;  // as the solver degrades it
+            double s[6], pp, pm;
+            bool ok;
+            TypeParam::response3(e(0, 0), e(1, 1), e(2, 2), e(1, 0), e(2, 0), e(2, 1), c, m.lambda, m.mu, s[0], s[1], s[2],
+                                 s[3], s[4], s[5], pp, pm, ok);
+            if (!ok) {
+                ++other;
+                continue;
+            }
+            ++ordinary;
+            const int row[6] = {0, 1, 2, 1, 2, 2}, col[6] = {0, 1, 2, 0, 0, 1};
+            for (int k = 0; k < 6; ++k) {
+                EXPECT_EQ(bits(s[k]), bits(sigma(row[k], col[k]))) << e << "\nc = " << c;
+                EXPECT_EQ(bits(s[k]), bits(sigma(col[k], row[k]))) << e << "\nc = " << c;
+            }
+            EXPECT_EQ(bits(pp), bits(r.psiPlus)) << e;
+            EXPECT_EQ(bits(pm), bits(r.psiMinus)) << e;
+        }
+        EXPECT_GT(ordinary, 1200);
+        EXPECT_GT(other, 1500);  // the strains at 1e-200, 1e120 and 1e-120
+    }
+}
+
 TYPED_TEST(LawTest, StressOfASymmetricStrainIsBitwiseSymmetric2D)
 {
     // A 2D point stores its strain and stress as three numbers (PointTensor.hpp). That loses
@@ -401,6 +467,37 @@ TEST(SpectralSplit3D, StrainsNearTheUnderflowLimitStayFinite)
 }
 
 namespace {
+/// eps+ = sum <l_i>+ n_i n_i from Eigen's iterative eigen-decomposition (QL, eigenvectors): an
+/// independent reference for SpectralSplit's closed form.
+Mat<3> eigenTensilePart(const Mat<3>& e, Vec<3>& l)
+{
+    const Eigen::SelfAdjointEigenSolver<Mat<3>> es(e);
+    l = es.eigenvalues();
+    Mat<3> ep = Mat<3>::Zero();
+    for (int i = 0; i < 3; ++i) ep += std::max(l(i), 0.0) * es.eigenvectors().col(i) * es.eigenvectors().col(i).transpose();
+    return ep;
+}
+}  // namespace
+
+TEST(SpectralSplit3D, TensilePartIsThatOfTheEigenDecomposition)
+{
+    // The closed form (tensilePart3: no eigenvectors, no trigonometric function) against the
+    // eigenvectors' sum, for random strains and strains with repeated principal values: the
+    // principal strains (as a set) and eps+ to round-off of the strain's size.
+    std::mt19937 rng(37);
+    for (const Mat<3>& e : testStrains3D(rng)) {
+        Vec<3> l, lr;
+        Mat<3> ep;
+        emp::SpectralSplit::tensilePart(e, l, ep);
+        const Mat<3> epr = eigenTensilePart(e, lr);
+        std::sort(l.data(), l.data() + 3);
+        const double size = e.cwiseAbs().maxCoeff();
+        EXPECT_LE((l - lr).cwiseAbs().maxCoeff(), 1e-14 * size) << e << "\n" << l.transpose() << "\n" << lr.transpose();
+        EXPECT_LE((ep - epr).cwiseAbs().maxCoeff(), 1e-14 * size) << e << "\n" << ep << "\n" << epr;
+    }
+}
+
+namespace {
 /// The 2D tensile part as first written with Eigen (selects on the principal strains): the plain
 /// reference of SpectralSplit::tensilePart2, which the solver runs for several points at once.
 void referenceTensilePart(const Mat<2>& e, Vec<2>& l, Mat<2>& ep)
@@ -463,4 +560,36 @@ TEST(LawInTheSolver, RunsOfPointsGiveEachPointItsOwnLawBitwise)
         tensile += r.psiPlus > 0 && r.psiMinus > 0;
     }
     EXPECT_GT(tensile, 10);  // mixed states: the split's every case is met
+}
+
+/// The same in 3D: the stress pass evaluates the spectral split for runs of points (lawOfRun3,
+/// response3), the other laws point by point; each point's stress and energy are bitwise its
+/// material's law at its strain.
+TEST(LawInTheSolver, RunsOfPointsGiveEachPointItsOwnLawBitwise3D)
+{
+    emp::Solver<3, emp::GimpKernel> s(emptest::typicalSettings(0.01, 2));
+    const int spectral = emp::lawIndex("spectral"), volumetric = emp::lawIndex("volumetric");
+    const int m0 = s.addMaterial(2e7, 0.25, 1000, false, spectral);
+    const int m1 = s.addMaterial(3e7, 0.2, 1200, false, volumetric);
+    const int m2 = s.addMaterial(1e7, 0.3, 900, false, spectral);
+    const auto vel = [](const Vec<3>& x) {
+        return Vec<3>(std::sin(40 * x[1]), std::cos(30 * x[0]) - 0.5, std::sin(25 * x[2] + 30 * x[0]));
+    };
+    emptest::addBlock<3>(s, {3, 3, 3}, {5, 7, 6}, m0, vel);
+    emptest::addBlock<3>(s, {5, 3, 3}, {6, 7, 6}, m1, vel);
+    emptest::addBlock<3>(s, {6, 3, 3}, {9, 7, 6}, m2, vel);
+    s.initialize();
+    auto& P = s.points();
+    for (std::size_t p = 0; p < P.size(); p += 3) P.damage[p] = 0.5 * (p % 2);  // some damaged or eroded
+    const double dt = 0.5 * s.criticalTimeStep();
+    for (int k = 0; k < 3; ++k) s.step(dt, 1);
+    int mixed = 0;
+    for (std::size_t p = 0; p < P.size(); ++p) {
+        const auto r = emp::lawResponse<3>(P.strain[p], s.materials()[P.material[p]]);
+        const Mat<3> sigma = P.damage[p] * r.sigmaPlus + r.sigmaMinus;
+        for (int k = 0; k < 9; ++k) ASSERT_EQ(bits(P.stress[p](k)), bits(sigma(k))) << "point " << p;
+        ASSERT_EQ(bits(P.energy[p]), bits(P.damage[p] * r.psiPlus + r.psiMinus)) << "point " << p;
+        mixed += r.psiPlus > 0 && r.psiMinus > 0;
+    }
+    EXPECT_GT(mixed, 10);  // mixed states: the split's every case is met
 }
