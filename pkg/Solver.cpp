@@ -618,18 +618,9 @@ EMP_NOINLINE void Solver<D, K>::corotationalOfRun3(const int* ids, const St* st,
             store(r, i, Rot);
             store(u, i, stretch3(Rot, load(f, i)));
         }
-        // The law at eps = U - I, point by point.
-        for (int i = 0; i < n; ++i) {
-            const int p = ids[i];
-            for (int k = 0; k < 9; ++k) P.deformationGradient[p](k / 3, k % 3) = f[k][i];
-            if (state[i] != 2.0) {  // a degenerate F: NaN stress, reported by the step's check
-                P.stress[p].setConstant(std::numeric_limits<double>::quiet_NaN());
-                for (int k = 0; k < 9; ++k) sig[k][i] = 0;  // (the lane's Cauchy stress is not used)
-                continue;
-            }
-            Mat<3> eps;
-            for (int k = 0; k < 9; ++k) eps(k / 3, k % 3) = u[k][i] - (k % 4 == 0 ? 1.0 : 0.0);
-            P.strain[p] = eps;
+        // The law at eps = U - I: point by point, or, where the run's points share a law with
+        // the pointwise 3D response, as lawOfRun3 does (bitwise the same).
+        const auto lawAtLane = [&](int i, int p, const Mat<3>& eps) {
             const ElasticMaterial& m = materials_[P.material[p]];
             withLaw(m.law, [&](auto law) {
                 const LawResponse<3> resp = decltype(law)::template response<3>(eps, m);
@@ -638,7 +629,57 @@ EMP_NOINLINE void Solver<D, K>::corotationalOfRun3(const int* ids, const St* st,
                 P.energy[p] = P.damage[p] * resp.psiPlus + resp.psiMinus;
                 P.history[p] = std::max(P.history[p], resp.psiPlus);
             });
+        };
+        const auto strainOf = [&](int i) {
+            Mat<3> eps;
+            for (int k = 0; k < 9; ++k) eps(k / 3, k % 3) = u[k][i] - (k % 4 == 0 ? 1.0 : 0.0);
+            return eps;
+        };
+        for (int i = 0; i < n; ++i) {
+            const int p = ids[i];
+            for (int k = 0; k < 9; ++k) P.deformationGradient[p](k / 3, k % 3) = f[k][i];
+            if (state[i] != 2.0) {  // a degenerate F: NaN stress, reported by the step's check
+                P.stress[p].setConstant(std::numeric_limits<double>::quiet_NaN());
+                for (int k = 0; k < 9; ++k) sig[k][i] = 0;  // (the lane's Cauchy stress is not used)
+                continue;
+            }
+            P.strain[p] = strainOf(i);
         }
+        const bool shared = withSharedPointwiseLaw(ids, n, [&](auto law) {
+            using Law = decltype(law);
+            // The lanes' arrays reuse x and y (free after the iteration): strains, then stresses.
+            alignas(64) double c[R], lambda[R], mu[R], psiPlus[R], psiMinus[R], ordinary[R];
+            for (int i = 0; i < n; ++i) {
+                const int p = ids[i];
+                c[i] = P.damage[p];
+                const ElasticMaterial& m = materials_[P.material[p]];
+                lambda[i] = m.lambda;
+                mu[i] = m.mu;
+                const int at[6] = {0, 4, 8, 3, 6, 7};  // the lower triangle
+                for (int k = 0; k < 6; ++k) x[k][i] = u[at[k]][i] - (k < 3 ? 1.0 : 0.0);
+            }
+            forLanes(n, [&](int i) EMP_LAMBDA_INLINE {  // (this lambda is not inlined: forLanes sets the width)
+                bool ok;
+                Law::response3(x[0][i], x[1][i], x[2][i], x[3][i], x[4][i], x[5][i], c[i], lambda[i], mu[i], y[0][i],
+                               y[1][i], y[2][i], y[3][i], y[4][i], y[5][i], psiPlus[i], psiMinus[i], ok);
+                ordinary[i] = ok ? 1.0 : 0.0;
+            });
+            for (int i = 0; i < n; ++i) {
+                if (state[i] != 2.0) continue;
+                const int p = ids[i];
+                if (ordinary[i] != 1.0) {
+                    lawAtLane(i, p, strainOf(i));
+                    continue;
+                }
+                const int row[6] = {0, 1, 2, 1, 2, 2}, col[6] = {0, 1, 2, 0, 0, 1};
+                for (int k = 0; k < 6; ++k) sig[3 * row[k] + col[k]][i] = sig[3 * col[k] + row[k]][i] = y[k][i];
+                P.energy[p] = c[i] * psiPlus[i] + psiMinus[i];
+                P.history[p] = std::max(P.history[p], psiPlus[i]);
+            }
+        });
+        if (!shared)
+            for (int i = 0; i < n; ++i)
+                if (state[i] == 2.0) lawAtLane(i, ids[i], strainOf(i));
         for (int i = 0; i < n; ++i) store(sig, i, cauchyStress3(load(r, i), load(u, i), load(sig, i)));
         for (int i = 0; i < n; ++i)
             if (state[i] == 2.0)
