@@ -45,8 +45,9 @@ struct TemplateLaw {
         return m.planeStress ? 0.0 : c * m.lambda * eps.trace();
     }
 
-    // Optional (Law.hpp): static void response2(...), the 2D response on plain numbers, which
-    // the solver then evaluates for runs of points in one vectorised loop; see SpectralSplit.
+    // Optional (Law.hpp): static void response2(...) and response3(...), the 2D and 3D responses
+    // on plain numbers, which the solver then evaluates for runs of points in one vectorised
+    // loop; see SpectralSplit.
 
     /// Dilatational wave speed: sets the critical time step h / (c + v_max).
     static double waveSpeed(const ElasticMaterial& m) { return std::sqrt((m.lambda + 2.0 * m.mu) / m.rho); }
