@@ -33,6 +33,13 @@ int dominantAxis(const Vec<3>& n)
     return a;
 }
 
+/// The plane of a 3D crack polygon as crossesPolygon uses it.
+template <class Plane> Plane planeOf(const std::vector<Vec<3>>& v)
+{
+    const Vec<3> n = newellNormal(v);
+    return Plane{n, n.dot(v[0]), dominantAxis(n)};
+}
+
 /// Crossing-number point-in-polygon test in the plane of axes (b, c), half-open edges.
 bool insidePolygon(const std::vector<Vec<3>>& v, int b, int c, double pb, double pc)
 {
@@ -85,6 +92,7 @@ template <int D> int PhantomNodes<D>::addCrack(const std::vector<Vec<D>>& v)
                 "<= 1e-6 of the polygon size (the polygon must be planar)");
     }
     cracks_.push_back(v);
+    planesStale_ = true;
     return static_cast<int>(cracks_.size()) - 1;
 }
 
@@ -92,12 +100,15 @@ template <int D> bool PhantomNodes<D>::crossesPolygon(int c, const Vec<D>& p, co
 {
     if constexpr (D == 3) {
         const auto& v = cracks_[c];
-        const Vec<3> n = newellNormal(v);
-        const double off = n.dot(v[0]);
+        // (P2G calls this for every marked node of every point near the crack: the plane kept
+        // since update(), the same numbers as formed here.)
+        const Plane plane = planesStale_ ? planeOf<Plane>(v) : planes_[c];
+        const Vec<3>& n = plane.normal;
+        const double off = plane.offset;
         const double sp = n.dot(p) - off, sq = n.dot(q) - off;
         if ((sp >= 0) == (sq >= 0)) return false;
         const Vec<3> x = p + (sp / (sp - sq)) * (q - p);
-        const int a = dominantAxis(n);
+        const int a = plane.axis;
         return insidePolygon(v, (a + 1) % 3, (a + 2) % 3, x[(a + 1) % 3], x[(a + 2) % 3]);
     } else {
         return crosses(c, p, q);
@@ -216,6 +227,11 @@ template <int D> int PhantomNodes<D>::update(const Grid<D>& g, int rings)
 {
     const int nn = g.numNodes();
     reset(nn, static_cast<int>(cracks_.size()));
+    if constexpr (D == 3) {
+        planes_.clear();
+        for (const auto& v : cracks_) planes_.push_back(planeOf<Plane>(v));
+        planesStale_ = false;
+    }
     std::vector<long> cells, nodes;
     for (std::size_t c = 0; c < cracks_.size(); ++c) {
         cells.clear();

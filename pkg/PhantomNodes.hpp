@@ -56,12 +56,19 @@ public:
     int restoreCrack(const std::vector<Vec<D>>& vertices)
     {
         cracks_.push_back(vertices);
+        planesStale_ = true;
         return static_cast<int>(cracks_.size()) - 1;
     }
     bool empty() const { return cracks_.empty(); }
     std::size_t numCracks() const { return cracks_.size(); }
     const std::vector<Vec<D>>& vertices(int c) const { return cracks_[c]; }
-    std::vector<Vec<D>>& vertices(int c) { return cracks_[c]; }
+    /// Crack c's vertices, to move them (CrackTransport): the 3D planes kept for crosses() are
+    /// stale until the next update().
+    std::vector<Vec<D>>& vertices(int c)
+    {
+        planesStale_ = true;
+        return cracks_[c];
+    }
 
     /// Marks the cells cut by the cracks, dilated by `rings` cells, and numbers the twins from
     /// g.numNodes() on. Returns the number of twins.
@@ -153,6 +160,15 @@ private:
     void markCells(int c, const Grid<D>& g, std::vector<long>& cells) const;
 
     std::vector<std::vector<Vec<D>>> cracks_;
+    /// 3D: each crack's plane as crossesPolygon uses it (Newell normal, offset, dominant axis),
+    /// formed by update() for the step's P2G; while stale, crossesPolygon forms it per call.
+    struct Plane {
+        Vec<3> normal;
+        double offset;
+        int axis;
+    };
+    std::vector<Plane> planes_;
+    bool planesStale_ = true;
     // Per regular node, zeros until written (ZeroPages): a rank of a distributed run writes
     // only near the cracks, and only those pages take memory.
     std::vector<char, ZeroPages<char>> mark_;

@@ -5,6 +5,7 @@
 // no stress, and cracks that move with a translating body.
 #include <algorithm>
 #include <set>
+#include <utility>
 
 #include "test_helpers.hpp"
 
@@ -327,6 +328,30 @@ TEST(PhantomMarking, InclinedPolylineMarksTheCellsItMeets)
         const auto& marked = ph.markedNodes();
         EXPECT_EQ(std::set<int>(marked.begin(), marked.end()), expect) << "rings " << rings;
     }
+}
+
+TEST(PhantomCrossing3D, CrossingFollowsTheVerticesWhenTheyMoveAndAfterUpdate)
+{
+    // update() keeps each polygon's plane for the step's P2G; moving the vertices (as
+    // CrackTransport does, through the non-const vertices()) must not leave crosses() on the old
+    // plane, before or after the next update().
+    const Grid<3> g = makeGrid<3>(v3(0, 0, 0), 1.0, {10, 10, 10});
+    PhantomNodes<3> ph;
+    ph.addCrack({v3(1.6, 2.6, 3.3), v3(4.4, 2.6, 3.3), v3(4.4, 5.4, 3.3), v3(1.6, 5.4, 3.3)});
+    const auto crossesAt = [&](double z) { return ph.crosses(0, v3(3, 4, z - 0.2), v3(3, 4, z + 0.2)); };
+    EXPECT_TRUE(crossesAt(3.3));
+    ph.update(g, 1);
+    EXPECT_TRUE(crossesAt(3.3));
+    EXPECT_FALSE(crossesAt(4.3));
+    for (auto& x : ph.vertices(0)) x[2] += 1.0;  // the crack moves up by one cell
+    EXPECT_FALSE(crossesAt(3.3));
+    EXPECT_TRUE(crossesAt(4.3));
+    ph.update(g, 1);
+    EXPECT_FALSE(crossesAt(3.3));
+    EXPECT_TRUE(crossesAt(4.3));
+    for (auto& x : ph.vertices(0)) std::swap(x[0], x[1]);  // mirrored: the normal turns over
+    ph.update(g, 1);
+    EXPECT_TRUE(ph.crosses(0, v3(4, 3, 4.3), v3(4, 3, 4.5)));  // from on the crack, now below it
 }
 
 TEST(PhantomMarking, RectangleIn3DMarksCutCellsPlusRings)
