@@ -58,21 +58,47 @@ struct SpectralSplit {
     {
         double l0, l1, pxx, pxy, pyx, pyy;
         tensilePart2(exx, exy, eyx, eyy, l0, l1, pxx, pxy, pyx, pyy);
-        const double tr = exx + eyy;
-        double sp2 = 0, sm2 = 0;
-        sp2 += positivePart(l0) * positivePart(l0);
-        sm2 += negativePart(l0) * negativePart(l0);
-        sp2 += positivePart(l1) * positivePart(l1);
-        sm2 += negativePart(l1) * negativePart(l1);
-        psiPlus = 0.5 * lambda * positivePart(tr) * positivePart(tr) + mu * sp2;   // Eq 3
-        psiMinus = 0.5 * lambda * negativePart(tr) * negativePart(tr) + mu * sm2;  // Eq 4
-        // Eq 7: lambda <tr>+- I + 2 mu eps+-, the identity's zeros multiplied as in response<2>.
-        const double lp = lambda * positivePart(tr), lm = lambda * negativePart(tr), twoMu = 2.0 * mu;
-        sxx = c * (lp * 1.0 + twoMu * pxx) + (lm * 1.0 + twoMu * (exx - pxx));
-        sxy = c * (lp * 0.0 + twoMu * pxy) + (lm * 0.0 + twoMu * (exy - pxy));
-        syx = c * (lp * 0.0 + twoMu * pyx) + (lm * 0.0 + twoMu * (eyx - pyx));
-        syy = c * (lp * 1.0 + twoMu * pyy) + (lm * 1.0 + twoMu * (eyy - pyy));
+        const Plain r(exx + eyy, c, lambda, mu);
+        r.energies(r.squares(l0) + r.squares(l1), psiPlus, psiMinus);
+        sxx = r.stress(1.0, exx, pxx);
+        sxy = r.stress(0.0, exy, pxy);
+        syx = r.stress(0.0, eyx, pyx);
+        syy = r.stress(1.0, eyy, pyy);
     }
+
+    /// Eqs 3-4 and 7 on plain numbers, for response2 and response3: in the operations and the
+    /// order of response<D>, so that the results are bitwise the same.
+    struct Plain {
+        /// The sums of squared positive and negative principal strains, tr(eps+^2) and tr(eps-^2).
+        struct Squares {
+            double plus, minus;
+            EMP_ALWAYS_INLINE Squares operator+(const Squares& o) const { return {plus + o.plus, minus + o.minus}; }
+        };
+        double tr, c, lambda, mu, lp, lm, twoMu;
+        EMP_ALWAYS_INLINE Plain(double tr, double c, double lambda, double mu)
+            : tr(tr), c(c), lambda(lambda), mu(mu), lp(lambda * positivePart(tr)), lm(lambda * negativePart(tr)),
+              twoMu(2.0 * mu)
+        {
+        }
+        /// A principal strain's squares. (Summed from the first, as response<D>'s loop sums them
+        /// from 0: both squares are >= +0, so 0 + x is x.)
+        EMP_ALWAYS_INLINE static Squares squares(double l)
+        {
+            return {positivePart(l) * positivePart(l), negativePart(l) * negativePart(l)};
+        }
+        EMP_ALWAYS_INLINE void energies(const Squares& s, double& psiPlus, double& psiMinus) const
+        {
+            psiPlus = 0.5 * lambda * positivePart(tr) * positivePart(tr) + mu * s.plus;   // Eq 3
+            psiMinus = 0.5 * lambda * negativePart(tr) * negativePart(tr) + mu * s.minus;  // Eq 4
+        }
+        /// Eq 7's c sigma+ + sigma- = c (lambda <tr>+ I + 2 mu eps+) + lambda <tr>- I + 2 mu eps-,
+        /// one entry: `identity` is I's entry (its zeros multiplied, as in response<D>), e eps's
+        /// and p eps+'s.
+        EMP_ALWAYS_INLINE double stress(double identity, double e, double p) const
+        {
+            return c * (lp * identity + twoMu * p) + (lm * identity + twoMu * (e - p));
+        }
+    };
 
     /// Whether the 3D tensile part takes a strain whose largest entry (in magnitude) is amax
     /// directly: its squares and products neither underflow nor overflow. Others (strains far
@@ -210,22 +236,14 @@ struct SpectralSplit {
         double l0, l1, l2, pxx, pyy, pzz, pyx, pzx, pzy;
         bool allTensile, allCompressive;
         tensilePart3(xx, yy, zz, yx, zx, zy, l0, l1, l2, pxx, pyy, pzz, pyx, pzx, pzy, allTensile, allCompressive);
-        const double tr = xx + (yy + zz);
-        // (As response<3>'s loop, written out.)
-        const double sp2 = ((0.0 + positivePart(l0) * positivePart(l0)) + positivePart(l1) * positivePart(l1)) +
-                           positivePart(l2) * positivePart(l2);
-        const double sm2 = ((0.0 + negativePart(l0) * negativePart(l0)) + negativePart(l1) * negativePart(l1)) +
-                           negativePart(l2) * negativePart(l2);
-        psiPlus = 0.5 * lambda * positivePart(tr) * positivePart(tr) + mu * sp2;   // Eq 3
-        psiMinus = 0.5 * lambda * negativePart(tr) * negativePart(tr) + mu * sm2;  // Eq 4
-        // Eq 7: lambda <tr>+- I + 2 mu eps+-, the identity's zeros multiplied as in response<3>.
-        const double lp = lambda * positivePart(tr), lm = lambda * negativePart(tr), twoMu = 2.0 * mu;
-        sxx = c * (lp * 1.0 + twoMu * pxx) + (lm * 1.0 + twoMu * (xx - pxx));
-        syy = c * (lp * 1.0 + twoMu * pyy) + (lm * 1.0 + twoMu * (yy - pyy));
-        szz = c * (lp * 1.0 + twoMu * pzz) + (lm * 1.0 + twoMu * (zz - pzz));
-        syx = c * (lp * 0.0 + twoMu * pyx) + (lm * 0.0 + twoMu * (yx - pyx));
-        szx = c * (lp * 0.0 + twoMu * pzx) + (lm * 0.0 + twoMu * (zx - pzx));
-        szy = c * (lp * 0.0 + twoMu * pzy) + (lm * 0.0 + twoMu * (zy - pzy));
+        const Plain r(xx + (yy + zz), c, lambda, mu);
+        r.energies(r.squares(l0) + r.squares(l1) + r.squares(l2), psiPlus, psiMinus);
+        sxx = r.stress(1.0, xx, pxx);
+        syy = r.stress(1.0, yy, pyy);
+        szz = r.stress(1.0, zz, pzz);
+        syx = r.stress(0.0, yx, pyx);
+        szx = r.stress(0.0, zx, pzx);
+        szy = r.stress(0.0, zy, pzy);
     }
 
     template <int D> EMP_ALWAYS_INLINE static LawResponse<D> response(const Mat<D>& eps, const ElasticMaterial& mat)
