@@ -124,7 +124,9 @@ struct SpectralSplit {
     /// tr(B^2) = 6), so P_k = (B^2 + beta_k B + (beta_k^2 - 3) I) / (3 (beta_k^2 - 1)), with a
     /// denominator between 6 and 9. The other pair lives in the plane Q = I - P_k as e - l_k P_k;
     /// its values m -+ s come from its trace and the norm of its deviator in the plane, with no
-    /// cancellation, so a repeated pair (even at zero) is split exactly.
+    /// cancellation, so a repeated pair (even at zero) is split exactly. allTensile and
+    /// allCompressive tell when eps+ is all of e or none of it (every principal strain of one
+    /// sign by more than 1e-6 of their spread, or e = q I).
     EMP_ALWAYS_INLINE static void tensilePart3(double xx, double yy, double zz, double yx, double zx, double zy,
                                                double& l0, double& l1, double& l2, double& pxx, double& pyy,
                                                double& pzz, double& pyx, double& pzx, double& pzy, bool& allTensile,
