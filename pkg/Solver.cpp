@@ -554,14 +554,14 @@ template <int D, class K>
 EMP_NOINLINE void Solver<D, K>::corotationalOfRun3(const int* ids, const St* st, int n, double dt)
 {
     // corotationalOfRun's point-by-point update for n 3D points, its algebra lane by lane as in
-    // corotationalOfRun2. The polar decomposition's Newton iteration runs over all lanes until
-    // the last has converged; a lane that has converged (or was refused) keeps its value. The 3D
-    // law stays point by point (its eigenvalues call libm). Out of line, so that its size does
-    // not change what GCC inlines into the default 3D stress pass (forcing the 3D polar
-    // decomposition inline there had cost the default pass 7 % more instructions). All of it is
-    // compiled once per lane width (withLaneIsa, pkg/Lanes.hpp), so that GCC vectorises the
-    // lanes' loops in the width the processor has; the arrays stay local to each copy (captured
-    // by reference, GCC would not vectorise the loops for fear of aliasing).
+    // corotationalOfRun2. The polar decomposition's Newton iteration runs over all lanes until the last
+    // has converged; a lane that has converged (or was refused) keeps its value. The 3D law runs as in
+    // lawOfRun3 where the run's points share a law with response3. Out of line, so that its size does
+    // not change what GCC inlines into the default 3D stress pass (forcing the 3D polar decomposition
+    // inline there had cost the default pass 7 % more instructions). All of it is compiled once per
+    // lane width (withLaneIsa, pkg/Lanes.hpp), so that GCC vectorises the lanes' loops in the width the
+    // processor has; the arrays stay local to each copy (captured by reference, GCC would not vectorise
+    // the loops for fear of aliasing).
     if constexpr (D == 3) withLaneIsa([&]() EMP_LAMBDA_INLINE {
         auto& P = points_;
         constexpr int R = stressRun;
@@ -658,7 +658,9 @@ EMP_NOINLINE void Solver<D, K>::corotationalOfRun3(const int* ids, const St* st,
                 const int at[6] = {0, 4, 8, 3, 6, 7};  // the lower triangle
                 for (int k = 0; k < 6; ++k) x[k][i] = u[at[k]][i] - (k < 3 ? 1.0 : 0.0);
             }
-            forLanes(n, [&](int i) EMP_LAMBDA_INLINE {  // (this lambda is not inlined: forLanes sets the width)
+            // (forLanes: GCC keeps this lambda out of the lanes' copies of the enclosing one, so
+            // the loop takes its width from forLanes.)
+            forLanes(n, [&](int i) EMP_LAMBDA_INLINE {
                 bool ok;
                 Law::response3(x[0][i], x[1][i], x[2][i], x[3][i], x[4][i], x[5][i], c[i], lambda[i], mu[i], y[0][i],
                                y[1][i], y[2][i], y[3][i], y[4][i], y[5][i], psiPlus[i], psiMinus[i], ok);

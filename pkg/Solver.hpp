@@ -281,8 +281,8 @@ private:
     /// pointwise response: bitwise the per-point update.
     template <class Law> void corotationalOfRun2(const int* ids, const St* st, int n, double dt);
     /// The same for n 3D points: the algebra (F, polar decomposition, Cauchy stress) in
-    /// vectorised loops on plain numbers (Kinematics.hpp, Plain3), the law point by point.
-    /// Bitwise the per-point update.
+    /// vectorised loops on plain numbers (Kinematics.hpp, Plain3), the law through its response3
+    /// where the points share one (else point by point). Bitwise the per-point update.
     void corotationalOfRun3(const int* ids, const St* st, int n, double dt);
     /// When the n points ids share a law with the pointwise response of dimension D (Law.hpp,
     /// response2 or response3): f(law) and true; otherwise false.
