@@ -372,6 +372,21 @@ EMP_ALWAYS_INLINE bool Solver<D, K>::withSharedPointwiseLaw(const int* ids, int 
     return done;
 }
 
+template <int D, class K> EMP_ALWAYS_INLINE void Solver<D, K>::lawInputs(int p, double& c, double& lambda, double& mu) const
+{
+    c = points_.damage[p];
+    const ElasticMaterial& m = materials_[points_.material[p]];
+    lambda = m.lambda;
+    mu = m.mu;
+}
+
+template <int D, class K>
+EMP_ALWAYS_INLINE void Solver<D, K>::storeEnergies(int p, double c, double psiPlus, double psiMinus)
+{
+    points_.energy[p] = c * psiPlus + psiMinus;
+    points_.history[p] = std::max(points_.history[p], psiPlus);  // Eq 22
+}
+
 template <int D, class K>
 template <class Law>
 EMP_ALWAYS_INLINE void Solver<D, K>::lawOfRun2(const int* ids, int n)
@@ -386,10 +401,7 @@ EMP_ALWAYS_INLINE void Solver<D, K>::lawOfRun2(const int* ids, int n)
         e[1][i] = E(0, 1);
         e[2][i] = E(1, 0);
         e[3][i] = E(1, 1);
-        c[i] = P.damage[p];
-        const ElasticMaterial& m = materials_[P.material[p]];
-        lambda[i] = m.lambda;
-        mu[i] = m.mu;
+        lawInputs(p, c[i], lambda[i], mu[i]);
     }
     forLanes(n, [&](int i) EMP_LAMBDA_INLINE {
         Law::response2(e[0][i], e[1][i], e[2][i], e[3][i], c[i], lambda[i], mu[i], sigma[0][i], sigma[1][i],
@@ -398,8 +410,7 @@ EMP_ALWAYS_INLINE void Solver<D, K>::lawOfRun2(const int* ids, int n)
     for (int i = 0; i < n; ++i) {
         const int p = ids[i];
         P.stress[p] = Sym2::of(sigma[0][i], sigma[1][i], sigma[2][i], sigma[3][i]);
-        P.energy[p] = c[i] * psiPlus[i] + psiMinus[i];
-        P.history[p] = std::max(P.history[p], psiPlus[i]);
+        storeEnergies(p, c[i], psiPlus[i], psiMinus[i]);
     }
 }
 
@@ -424,10 +435,7 @@ EMP_ALWAYS_INLINE void Solver<D, K>::lawOfRun3(const int* ids, int n)
             e[3][i] = E(1, 0);
             e[4][i] = E(2, 0);
             e[5][i] = E(2, 1);
-            c[i] = P.damage[p];
-            const ElasticMaterial& m = materials_[P.material[p]];
-            lambda[i] = m.lambda;
-            mu[i] = m.mu;
+            lawInputs(p, c[i], lambda[i], mu[i]);
         }
         forLanes(n, [&](int i) EMP_LAMBDA_INLINE {
             bool ok;
@@ -448,8 +456,7 @@ EMP_ALWAYS_INLINE void Solver<D, K>::lawOfRun3(const int* ids, int n)
             S(1, 0) = S(0, 1) = sigma[3][i];
             S(2, 0) = S(0, 2) = sigma[4][i];
             S(2, 1) = S(1, 2) = sigma[5][i];
-            P.energy[p] = c[i] * psiPlus[i] + psiMinus[i];
-            P.history[p] = std::max(P.history[p], psiPlus[i]);
+            storeEnergies(p, c[i], psiPlus[i], psiMinus[i]);
         }
     }
 }
@@ -519,10 +526,7 @@ EMP_ALWAYS_INLINE void Solver<D, K>::corotationalOfRun2(const int* ids, const St
         const Mat<D>& F = P.deformationGradient[p];
         l[0][i] = L(0, 0), l[1][i] = L(0, 1), l[2][i] = L(1, 0), l[3][i] = L(1, 1);
         f[0][i] = F(0, 0), f[1][i] = F(0, 1), f[2][i] = F(1, 0), f[3][i] = F(1, 1);
-        c[i] = P.damage[p];
-        const ElasticMaterial& m = materials_[P.material[p]];
-        lambda[i] = m.lambda;
-        mu[i] = m.mu;
+        lawInputs(p, c[i], lambda[i], mu[i]);
     }
     forLanes(n, [&](int i) EMP_LAMBDA_INLINE {
         const Plain2 F = deformationUpdate2(dt, {l[0][i], l[1][i], l[2][i], l[3][i]}, {f[0][i], f[1][i], f[2][i], f[3][i]});
@@ -545,8 +549,7 @@ EMP_ALWAYS_INLINE void Solver<D, K>::corotationalOfRun2(const int* ids, const St
         }
         P.strain[p] = Sym2::of(e[0][i], e[1][i], e[2][i], e[3][i]);
         P.stress[p] = Sym2::of(sigma[0][i], sigma[1][i], sigma[2][i], sigma[3][i]);
-        P.energy[p] = c[i] * psiPlus[i] + psiMinus[i];
-        P.history[p] = std::max(P.history[p], psiPlus[i]);
+        storeEnergies(p, c[i], psiPlus[i], psiMinus[i]);
     }
 }
 
@@ -651,10 +654,7 @@ EMP_NOINLINE void Solver<D, K>::corotationalOfRun3(const int* ids, const St* st,
             alignas(64) double c[R], lambda[R], mu[R], psiPlus[R], psiMinus[R], ordinary[R];
             for (int i = 0; i < n; ++i) {
                 const int p = ids[i];
-                c[i] = P.damage[p];
-                const ElasticMaterial& m = materials_[P.material[p]];
-                lambda[i] = m.lambda;
-                mu[i] = m.mu;
+                lawInputs(p, c[i], lambda[i], mu[i]);
                 const int at[6] = {0, 4, 8, 3, 6, 7};  // the lower triangle
                 for (int k = 0; k < 6; ++k) x[k][i] = u[at[k]][i] - (k < 3 ? 1.0 : 0.0);
             }
@@ -675,8 +675,7 @@ EMP_NOINLINE void Solver<D, K>::corotationalOfRun3(const int* ids, const St* st,
                 }
                 const int row[6] = {0, 1, 2, 1, 2, 2}, col[6] = {0, 1, 2, 0, 0, 1};
                 for (int k = 0; k < 6; ++k) sig[3 * row[k] + col[k]][i] = sig[3 * col[k] + row[k]][i] = y[k][i];
-                P.energy[p] = c[i] * psiPlus[i] + psiMinus[i];
-                P.history[p] = std::max(P.history[p], psiPlus[i]);
+                storeEnergies(p, c[i], psiPlus[i], psiMinus[i]);
             }
         });
         if (!shared)
