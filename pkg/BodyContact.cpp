@@ -356,7 +356,7 @@ template <int D> void BodyContact<D>::afterForces(GridState<D>& s)
             B.velocity -= B.invMass.cwiseProduct(J);
             B.angularVelocity -= B.invInertia * r.cross(J);
             B.force -= J / dt;
-            B.torque -= r.cross(J) / dt;
+            if (!B.central) B.torque -= r.cross(J) / dt;
         };
         const double jn = -vn / inverseMassAlong(n);
         V3 J = jn * n;

@@ -56,6 +56,12 @@ struct RigidBody {
     Eigen::Vector3d force = Eigen::Vector3d::Zero();   ///< result: force of the points on the body, N
     Eigen::Vector3d torque = Eigen::Vector3d::Zero();  ///< result: its moment about centre, N m
     int id = -1;  ///< the caller's id of the body (YADE's body id), or -1
+    /// Its contact forces act through its centre (a frictionless sphere, centred in the plane
+    /// z = 0 in 2D: each impulse lies along the radius to its contact point), so they have no
+    /// moment and its spin and inertia play no part. The caller then gives it no angular
+    /// velocity and no inverse inertia, and the stage leaves its torque zero (the moment of
+    /// J along r, r x J, would only carry the rounding of r's direction).
+    bool central = false;
 };
 
 template <int D> class BodyContact : public GridCondition<D> {

@@ -419,3 +419,77 @@ def test_spheres_that_touch_no_point_are_skipped_without_changing_the_results(mo
     assert np.abs(skipped[0][:, 1]).max() > 0 and np.abs(skipped[0][:, 3]).max() > 0  # forces, work
     # Skipping happened: fewer bodies in the stage than the plain read, from the second step on.
     assert all(s < e for s, e in zip(skipped[4][1:], every[4][1:]))
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_frictionless_spheres_are_central_and_agree_with_the_general_path(dim, monkeypatch):
+    """Without friction a free sphere centred in the model is central (RigidBody::central): every
+    impulse lies along a radius, so addFreeSpheres reads neither its spin nor its inertia nor its
+    torque and applyForces writes no moment (doc/contact.md, "Cost"). Spinning spheres strike the
+    block and keep their spin bit for bit; a 2D sphere centred off the plane z = 0 is not central
+    (its forces act in the plane, off its centre) and gets a moment. The run agrees to round-off
+    with the general path, which reads every sphere in full (BodyContact._addBody)."""
+    def run():
+        O.reset()
+        if dim == 2:
+            mpm = block2d()
+            centres = [(0.008, 0.0265, 0), (0.02, 0.0265, 0), (0.032, 0.0265, 0.002)]
+        else:
+            mpm = em.MpmEngine(dim=3, h=0.004, label="cube", domain=((-0.01, -0.01, -0.01), (0.05, 0.05, 0.03)))
+            mpm.fill(pack.inAlignedBox((0, 0, 0), (0.04, 0.012, 0.02)), em.ElasticMaterial(E=1e7, nu=0.3, rho=1000))
+            centres = [(0.01, 0.0185, 0.01), (0.03, 0.0185, 0.01)]
+        mpm.fix(region=pack.inAlignedBox((-1, -1, -1), (1, 0.0001, 1)))
+        steel = O.materials.append(FrictMat(density=7800, young=2e11))
+        balls = [O.bodies.append(utils.sphere(c, 0.006, material=steel)) for c in centres]
+        for k, b in enumerate(balls):
+            O.bodies[b].state.vel = (0.3 * k, -2.0, 0)
+            O.bodies[b].state.angVel = (10.0 * k, -20.0, 300.0 + 50 * k)
+        contact = em.BodyContact(engine=mpm)
+        O.engines = [ForceResetter(), mpm, contact, NewtonIntegrator(damping=0)]
+        O.dt = 0.4 * mpm.criticalTimeStep()
+        pushed = np.zeros(len(balls))
+        for _ in range(150):
+            O.run(1, True)
+            pushed += [np.linalg.norm(contact.force(b)) for b in balls]
+        assert all(pushed > 0)  # every sphere struck the block
+        read.update(calls)
+        states = np.array([list(O.bodies[b].state.pos) + list(O.bodies[b].state.vel) for b in balls])
+        spins = np.array([list(O.bodies[b].state.angVel) for b in balls])
+        return states, spins, mpm.solver.positions().copy(), mpm.solver.velocities().copy()
+
+    # Count the reads of the spin, inertia and torque and the moments written (YADE's API).
+    from yade.wrapper import ForceContainer, State
+    calls, read = {"angVel": 0, "inertia": 0, "t": 0, "addT": 0}, {}
+
+    def counted(name, kind):
+        plain = (State if kind == "property" else ForceContainer).__dict__[name]
+
+        def count():
+            calls[name] += 1
+        if kind == "property":
+            return property(lambda st: (count(), plain.__get__(st))[1], plain.__set__)
+        return lambda self, *a: (count(), plain(self, *a))[1]
+    for name in ("angVel", "inertia"):
+        monkeypatch.setattr(State, name, counted(name, "property"))
+    for name in ("t", "addT"):
+        monkeypatch.setattr(ForceContainer, name, counted(name, "method"))
+    fast = run()
+    monkeypatch.undo()
+    # Only the off-plane sphere (2D) is read in full and gets moments; the NewtonIntegrator reads in C++.
+    if dim == 3:
+        assert read == {"angVel": 0, "inertia": 0, "t": 0, "addT": 0}
+    else:
+        assert 0 < read["angVel"] <= 150 and 0 < read["t"] <= 150 and 0 < read["addT"] <= 150
+    initial = np.array([(10.0 * k, -20.0, 300.0 + 50 * k) for k in range(len(fast[1]))])
+    central = slice(0, 2)  # in 2D the third sphere is centred off the plane
+    assert np.array_equal(fast[1][central], initial[central])
+    if dim == 2:
+        assert np.abs(fast[1][2] - initial[2]).max() > 1e-3  # the off-plane sphere was turned
+    monkeypatch.setattr(getattr(em._eigenmpm, f"Contact{dim}"), "addFreeSpheres",
+                        lambda core, bodies, ids, forces, gravity, dt, solver=None: ([], list(ids)))
+    general = run()
+    for a, b in ((fast[0], general[0]), (fast[2], general[2])):
+        assert np.allclose(a, b, rtol=0, atol=1e-12 * np.abs(b).max())
+    for a, b in ((fast[3], general[3]),):
+        assert np.allclose(a, b, rtol=0, atol=1e-9 * np.abs(b).max())
+    assert np.allclose(fast[1], general[1], rtol=0, atol=1e-9 * np.abs(general[1]).max())
