@@ -105,6 +105,11 @@ class BodyContact(PyRunner):
         self._load(mpm)
         return mpm
 
+    def beforeStep(self, mpm):
+        """Loads the bodies' current state (called by the MpmEngine before each of its steps
+        while the stage stays attached)."""
+        self._load(mpm)
+
     def detach(self, mpm):
         if sameStage(mpm.solver.contact, self.core):
             mpm.solver.setContact(None)

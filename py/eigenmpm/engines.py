@@ -2,9 +2,14 @@
 
 YADE calls the ``action`` of its own C++ engines only; the engine that runs Python inside the
 loop is ``PyRunner``. Our engines are therefore ``PyRunner`` subclasses whose command calls
-back into the engine object (looked up through this module, not through ``__main__``, whose
-namespace differs between ``yade script.py``, ``yade -x`` and plain Python).
+back into the engine object, looked up through this module by a function it puts in Python's
+builtins (``_eigenmpm_engine(key)``): not through ``__main__``, whose namespace differs between
+``yade script.py``, ``yade -x`` and plain Python, and without an import statement in the
+command, which YADE compiles and runs at every call (inside ``O.run``, after the step has left
+the interpreter's code out of the caches, the import cost about 20 us per iteration,
+doc/performance.md "Session 28").
 """
+import builtins
 import itertools
 import math
 import sys
@@ -22,13 +27,27 @@ from .params import Param, apply, declare, takes, vec3
 # holds the Python object of a Python subclass), one that no one holds is freed.
 _registry = weakref.WeakValueDictionary()
 _keys = itertools.count()
-COMMAND_PREFIX = "import eigenmpm.engines as _m; _m._registry["
+# MpmEngine -> (what its attachments depend on, the stages with a per-step part, those with an
+# after-step part): MpmEngine._syncPhysics. Kept outside the engines, whose state is saved.
+_attached = weakref.WeakKeyDictionary()
+_CALL = "_eigenmpm_engine"
+COMMAND_PREFIX = _CALL + "("
+# The commands of earlier versions (state._refuseOrphans recognises them in a loaded scene).
+LEGACY_PREFIXES = ("import eigenmpm.engines as _m; _m._registry[",)
+
+
+def _act(key):
+    """What an engine's command calls: the engine registered under `key` acts."""
+    _registry[key]._action()
+
+
+setattr(builtins, _CALL, _act)
 
 
 def _register(engine):
     key = next(_keys)
     _registry[key] = engine
-    return f"{COMMAND_PREFIX}{key}]._action()"
+    return f"{COMMAND_PREFIX}{key})"
 
 
 def registered(runner):
@@ -38,7 +57,7 @@ def registered(runner):
     if not isinstance(runner, PyRunner) or not command.startswith(COMMAND_PREFIX):
         return None
     try:
-        return _registry.get(int(command[len(COMMAND_PREFIX):].split("]", 1)[0]))
+        return _registry.get(int(command[len(COMMAND_PREFIX):].split(")", 1)[0]))
     except ValueError:
         return None
 
@@ -616,8 +635,21 @@ class MpmEngine(PyRunner):
     def _syncPhysics(self):
         """A physics engine (EigenErosion, ...) acts only while it is in O.engines and not dead:
         each step, those there that work for this engine attach their stage, and any other
-        attached one is detached. Returns O.engines."""
+        attached one is detached. Returns O.engines.
+
+        What is attached depends only on O.engines (which engines, in which order, which are
+        dead), on this engine's solver and on what it has attached: when none of these changed
+        since the last step, the attachments stand and only each stage's per-step part runs
+        (``beforeStep``: BodyContact reads the bodies). ``attach`` is idempotent apart from that
+        part. (Inside O.run, after the step has left the interpreter's code out of the caches,
+        the full test of every engine cost about 30 us per step, doc/performance.md "Session 28".)"""
         engines = O.engines
+        key = (id(self.solver), len(self.physics), tuple((id(e), e.dead) for e in engines))
+        known = _attached.get(self)
+        if known is not None and known[0] == key:
+            for e in known[1]:
+                e.beforeStep(self)
+            return engines
         active = [e for e in engines if e is not self and callable(getattr(type(e), "attach", None))
                   and not e.dead and findEngine(e.engine) is self]
         for e in list(self.physics.values()):
@@ -625,6 +657,9 @@ class MpmEngine(PyRunner):
                 e.detach(self)
         for e in active:
             e.attach(self)
+        key = (id(self.solver), len(self.physics), key[2])
+        _attached[self] = (key, [e for e in active if callable(getattr(type(e), "beforeStep", None))],
+                           [e for e in self.physics.values() if callable(getattr(type(e), "afterStep", None))])
         return engines
 
     def _action(self):
@@ -661,10 +696,8 @@ class MpmEngine(PyRunner):
                 if any(rec is e for e in engines) and not rec.dead:
                     rec.onFailure(self, err)
             raise
-        for phys in list(self.physics.values()):  # e.g. BodyContact: the forces on YADE's bodies
-            after = getattr(phys, "afterStep", None)
-            if after is not None:
-                after(self)
+        for phys in _attached[self][2]:  # e.g. BodyContact: the forces on YADE's bodies
+            phys.afterStep(self)
         if parallel.worldSize() > 1 and parallel.agreeOnStop():  # a signal on any rank: all stop here
             O.pause()
 

@@ -320,8 +320,8 @@ def _loadTmp(self, mark="", *args, **kw):
 def _refuseOrphans(what):
     """A scene with EigenMPM runners but no snapshot (saved without eigenmpm imported, or by an
     older version) cannot continue: refuse instead of running stale engines."""
-    from .engines import COMMAND_PREFIX
-    if any(isinstance(e, PyRunner) and e.command.startswith(COMMAND_PREFIX) for e in O.engines):
+    from .engines import COMMAND_PREFIX, LEGACY_PREFIXES
+    if any(isinstance(e, PyRunner) and e.command.startswith((COMMAND_PREFIX,) + LEGACY_PREFIXES) for e in O.engines):
         raise StateError(f"EigenMPM: {what} holds EigenMPM engines but no EigenMPM state (saved "
                          "without eigenmpm imported, or by an older version); rebuild the scene")
 

@@ -227,6 +227,18 @@ def test_an_erosion_engine_attached_by_hand_does_not_act_outside_o_engines():
     assert mpm.solver.erosion is None and er.erodedCount() == 0
 
 
+def test_an_erosion_engine_attached_by_hand_between_steps_is_detached_at_the_next_step():
+    """MpmEngine._syncPhysics keeps the attachments while O.engines and the solver stay the same;
+    a stage attached by hand in between still changes what it checks (the attached stages)."""
+    mpm, er = pulled_plate()
+    O.engines = [mpm]
+    O.run(5, True)
+    er.attach(mpm)
+    assert mpm.solver.erosion is er.core
+    O.run(1, True)
+    assert mpm.solver.erosion is None and not mpm.physics
+
+
 @pytest.mark.parametrize("how", ["removed", "dead"])
 def test_an_erosion_engine_stops_when_removed_or_dead_and_resumes_when_back(how):
     mpm, er = pulled_plate()

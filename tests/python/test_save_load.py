@@ -162,6 +162,22 @@ def test_load_without_the_state_file_or_with_a_damaged_one_is_refused(tmp_path):
         O.load(f)
 
 
+@pytest.mark.parametrize("legacy", [False, True])
+def test_engines_saved_without_their_state_are_refused_at_load(legacy):
+    """A scene saved by YADE alone (no EigenMPM snapshot) whose O.engines holds EigenMPM
+    engines comes back with bare PyRunners: loading it is refused, for the engines' commands of
+    this version and of earlier ones (which imported eigenmpm.engines in the command)."""
+    mpm = plate()
+    O.run(2, True)
+    if legacy:
+        mpm.command = em.engines.LEGACY_PREFIXES[0] + "0]._action()"
+    else:
+        assert mpm.command.startswith(em.engines.COMMAND_PREFIX) and em.engines.registered(mpm) is mpm
+    em.state._original["saveTmp"](O, "bare")
+    with pytest.raises(StateError, match="holds EigenMPM engines but no EigenMPM state"):
+        O.loadTmp("bare")
+
+
 def test_saved_solver_state_of_another_version_is_refused():
     mpm = plate()
     O.run(5, True)
