@@ -823,17 +823,27 @@ template <int D, class K> void Solver<D, K>::erode(double dt, int nThreads)
 template <int D, class K> void Solver<D, K>::tractionForces()
 {
     // Traction on boundary points (Eq 28); few points, applied serially in a fixed order.
+    // A layer's points are mostly consecutive ids, and a tile holds its points in id order: the
+    // slot after the last one found is tried before the search in p's tile (Scheduler::slotOf).
     auto& g = grid_;
+    const auto& order = schedule_.order();
     tractionSlots_.clear();
+    int next = -1;
     for (std::size_t c = 0; c < tractions_.size(); ++c) {
         const auto& tc = tractions_[c];
         const Vec<D> t = (rampFactor(time_, tc.rampTime) * tc.traction).head<D>();
         forEachTractionPoint(c, [&](int p, int k) {
-            tractionSlots_.push_back(schedule_.slotOf(p));  // (for accumulateExternalWork)
+            const bool follows = next >= 0 && next < static_cast<int>(order.size()) && order[next] == p;
+            const int slot = follows ? next : schedule_.slotOf(p);
+            next = slot >= 0 ? slot + 1 : -1;
+            tractionSlots_.push_back(slot);  // (for accumulateExternalWork)
             St scratch;
-            const St& st = stepStencil(p, scratch, tractionSlots_.back());
+            const St& st = stepStencil(p, scratch, slot);
             const Vec<D> f = t * (points_.volume[p] / tc.layer);
-            st.forEach(g, [&](int I, double N, const Vec<D>&) { addNodeForce(I, N * f, 1 + static_cast<std::int64_t>(c), k); });
+            if (!dist_)  // (addNodeForce's own sum, without the call per node)
+                st.forEach(g, [&](int I, double N, const Vec<D>&) { g.force[I] += N * f; });
+            else
+                st.forEach(g, [&](int I, double N, const Vec<D>&) { addNodeForce(I, N * f, 1 + static_cast<std::int64_t>(c), k); });
         });
     }
 }
