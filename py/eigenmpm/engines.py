@@ -370,6 +370,7 @@ class MpmEngine(PyRunner):
         """Frees the solver and what refers to the scene (O.reset(), see _wrapReset)."""
         self.solver = _Released(f"the solver of MpmEngine {self.label!r}")
         self.bcs, self.recorders, self.physics, self._materials = {}, [], {}, {}
+        _attached.pop(self, None)
         self._released = True
 
     # --- specimen -------------------------------------------------------------------------
