@@ -185,8 +185,9 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
     // then treats it as before the APIC option existed: bench_block checksums and speed). Both
     // are forced inline into the Scheduler's loop: GCC kept APIC's out of line, which cost 2D
     // APIC 9 % more instructions.
+    // `frame` is the point's APIC frame when its run computed it (inRuns), or null.
     const auto body = [&](auto apic, auto computed) {
-        return [&](int k) EMP_LAMBDA_INLINE {
+        return [&](int k, const typename St::AffineFrame* frame) EMP_LAMBDA_INLINE {
             const int p = order[k];
             St& st = stencil_[k];
             if constexpr (!decltype(computed)::value) st.compute(P.x[p], g, half);
@@ -211,15 +212,17 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
                 // APIC: m_I v_I += N m_p (v_p + C_p (x_I - x_p)), C_p = B_p D_p^-1 at this position.
                 // In cells (u = (x_I - x_p) / h, D_p = h^2 diag(du)): C_p (x_I - x_p) = Cu u with
                 // Cu = h C_p = B_p diag(h du)^-1. Cu replaces B_p until G2P, which needs it for
-                // the kinetic energy and then stores the new B_p.
+                // the kinetic energy and then stores the new B_p. (u and 1 / (h du) from the
+                // point's frame: Stencil::affineFrameAlong.)
+                const typename St::AffineFrame f = frame ? *frame : st.affineFrame(P.x[p], g);
                 double u[D][S];
-                st.cellOffsets(P.x[p], g, u);
-                const Vec<D> du = st.momentDiagonal(u);
+                for (int d = 0; d < D; ++d)
+                    for (int i = 0; i < S; ++i) u[d][i] = f.b[d] + i;
                 Mat<D>& Cu = P.affineVelocity[p];
                 for (int d = 0; d < D; ++d)
-                    Cu.col(d) = du[d] > 0 ? Vec<D>(Cu.col(d) * (1.0 / (g.h * du[d]))) : Vec<D>::Zero();
+                    Cu.col(d) = f.r[d] > 0 ? Vec<D>(Cu.col(d) * f.r[d]) : Vec<D>::Zero();
                 if (st.regular()) {
-                    st.forEachRowAffine(g, u, mv, Mat<D>(mp * Cu), [&](int I0, const double* N, const double* Nt) EMP_LAMBDA_INLINE {
+                    st.forEachRowAffine(g, u, mv, mp, Cu, [&](int I0, const double* N, const double* Nt) EMP_LAMBDA_INLINE {
                         double* m = &g.mass[I0];
                         double* q = g.momentum[I0].data();
                         for (int i = 0; i < S; ++i) m[i] += N[i] * mp;
@@ -240,20 +243,26 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
     // With vectors wider than the baseline's (pkg/Lanes.hpp), the stencils of a run of points
     // are computed first, one point per lane (Stencil::computeRun), then the run scatters point
     // by point: the same stencils, and the same order of the contributions to each node.
+    // With APIC, the run's lanes find each point's frame too (its divisions 4 or 8 at a time).
     const auto inRuns = [&](auto apic) {
         const auto point = body(apic, std::true_type{});
         return [&, point](int begin, int end) EMP_LAMBDA_INLINE {
-            St::template computeRun<stencilRun>(end - begin, [&](int i) -> const Vec<D>& { return P.x[order[begin + i]]; },
-                                                g, half, &stencil_[begin]);
+            const auto x = [&](int i) -> const Vec<D>& { return P.x[order[begin + i]]; };
+            typename St::AffineFrame frames[decltype(apic)::value ? stencilRun : 1];
+            if constexpr (decltype(apic)::value)
+                St::template computeRun<stencilRun>(end - begin, x, g, half, &stencil_[begin], frames);
+            else
+                St::template computeRun<stencilRun>(end - begin, x, g, half, &stencil_[begin]);
             withLaneIsa([&]() EMP_LAMBDA_INLINE {  // (the rows' loops in the lanes' width)
-                for (int k = begin; k < end; ++k) point(k);
+                for (int k = begin; k < end; ++k) point(k, decltype(apic)::value ? &frames[k - begin] : nullptr);
             });
         };
     };
     const auto scatter = [&](auto apic) {
         if constexpr (K::laneEvaluation)
             if (laneIsa() != LaneIsa::baseline) return schedule_.scatterRuns(nThreads, stencilRun, inRuns(apic), between);
-        schedule_.scatter(nThreads, body(apic, std::false_type{}), between);
+        const auto point = body(apic, std::false_type{});
+        schedule_.scatter(nThreads, [&](int k) EMP_LAMBDA_INLINE { point(k, nullptr); }, between);
     };
     if (settings_.transfer == Transfer::apic)
         scatter(std::true_type{});

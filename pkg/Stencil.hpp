@@ -34,7 +34,12 @@ struct Lane3 {
         // and the reload waited on the two stores, about twice the time of the sums it served.)
         return Lane3{reinterpret_cast<V>(reinterpret_cast<Bits>(loaded) & Bits{-1, -1, -1, 0})};
     }
-    static EMP_ALWAYS_INLINE Lane3 of(const Vec<3>& a) { return Lane3{V{a[0], a[1], a[2], 0.0}}; }
+    static EMP_ALWAYS_INLINE Lane3 of(const Vec<3>& a)
+    {
+        typedef double V2 __attribute__((vector_size(2 * sizeof(double))));
+        const V2 lo{a[0], a[1]}, hi{a[2], 0.0};
+        return Lane3{__builtin_shufflevector(lo, hi, 0, 1, 2, 3)};
+    }
     friend EMP_ALWAYS_INLINE Lane3 operator+(const Lane3& a, const Lane3& b) { return Lane3{a.v + b.v}; }
     EMP_ALWAYS_INLINE Lane3& operator+=(const Lane3& o)
     {
@@ -48,6 +53,12 @@ struct Lane3 {
 template <int D, class K> struct Stencil {
     static constexpr int S = K::S;
     static constexpr int NS = D == 2 ? S * S : S * S * S;
+    /// APIC's P2G needs of a point's position, per direction d: b[d], the offset (x_I - x_p) / h
+    /// of its first support node, and r[d], the reciprocal of h times its moment diagonal in
+    /// cells, or 0 where that is not positive (affineFrameAlong).
+    struct AffineFrame {
+        double b[D], r[D];
+    };
     /// Index of the support's base node (its lowest corner) on the regular lattice. One number
     /// instead of the D lattice coordinates (8 B per point less in 2D and 3D: issue 12 item 3);
     /// baseOf recovers a coordinate where one is needed.
@@ -94,7 +105,21 @@ template <int D, class K> struct Stencil {
     template <int R, class X>
     static EMP_ALWAYS_INLINE void computeRun(int n, X&& x, const Grid<D>& g, const HalfWidth& lp, Stencil* out)
     {
+        computeRun<R, false>(n, x, g, lp, out, nullptr);
+    }
+    /// computeRun with each point's APIC frame (affineFrame) too, from the same lanes.
+    template <int R, class X>
+    static EMP_ALWAYS_INLINE void computeRun(int n, X&& x, const Grid<D>& g, const HalfWidth& lp, Stencil* out,
+                                             AffineFrame* frames)
+    {
+        computeRun<R, true>(n, x, g, lp, out, frames);
+    }
+    template <int R, bool affine, class X>
+    static EMP_ALWAYS_INLINE void computeRun(int n, X&& x, const Grid<D>& g, const HalfWidth& lp, Stencil* out,
+                                             AffineFrame* frames)
+    {
         alignas(64) double xs[D][R], ws[D][S][R], dws[D][S][R];
+        alignas(64) double fb[affine ? D : 1][R], fr[affine ? D : 1][R];
         alignas(64) int bs[D][R];
         for (int i = 0; i < n; ++i) {
             const Vec<D>& xi = x(i);
@@ -102,11 +127,21 @@ template <int D, class K> struct Stencil {
         }
         double origin[D];
         for (int d = 0; d < D; ++d) origin[d] = g.origin[d];
-        const double invh = g.invh;
+        const double invh = g.invh, h = g.h;
         forLanes(n, [&](int i) EMP_LAMBDA_INLINE {
             for (int d = 0; d < D; ++d)
                 bs[d][i] = K::template evalLane<R>((xs[d][i] - origin[d]) * invh, lp, &ws[d][0][i], &dws[d][0][i]);
+            if constexpr (affine)
+                for (int d = 0; d < D; ++d)
+                    affineFrameAlong((xs[d][i] - origin[d]) * invh, bs[d][i], [&](int k) { return ws[d][k][i]; }, h,
+                                     fb[d][i], fr[d][i]);
         });
+        if constexpr (affine)
+            for (int i = 0; i < n; ++i)
+                for (int d = 0; d < D; ++d) {
+                    frames[i].b[d] = fb[d][i];
+                    frames[i].r[d] = fr[d][i];
+                }
         for (int i = 0; i < n; ++i) {
             Stencil& st = out[i];
             int base[D];
@@ -211,6 +246,34 @@ template <int D, class K> struct Stencil {
             const int base = baseOf(g, d);
             for (int k = 0; k < S; ++k) o[d][k] = g.origin[d] + (base + k) * g.h - x[d];
         }
+    }
+
+    /// APIC's frame of a point along one direction, from its position xi in cells, its base node
+    /// and its weights w(k): b = base - xi, the offset in cells of its first support node (node k
+    /// at b + k, as cellOffsets), and r = 1 / (h du), du = sum_k w_k (b + k)^2 the moment
+    /// diagonal in cells (momentDiagonal), or r = 0 where du is not positive. The same operations
+    /// per point (affineFrame) and in computeRun's lanes, where the divisions go 4 or 8 at a time.
+    template <class W>
+    static EMP_ALWAYS_INLINE void affineFrameAlong(double xi, int base, W&& w, double h, double& b, double& r)
+    {
+        b = base - xi;
+        double du = 0;
+        for (int k = 0; k < S; ++k) du += w(k) * (b + k) * (b + k);
+        // (The division for every lane, then the choice: a division under a condition would not
+        // vectorise; where du > 0 it is the same division.)
+        const double q = 1.0 / (h * (du > 0 ? du : 1.0));
+        r = du > 0 ? q : 0.0;
+    }
+    /// This stencil's APIC frame (affineFrameAlong in each direction) for the point at x, the
+    /// position the stencil was computed at.
+    EMP_ALWAYS_INLINE AffineFrame affineFrame(const Vec<D>& x, const Grid<D>& g) const
+    {
+        AffineFrame f;
+        for (int d = 0; d < D; ++d) {
+            const double xi = (x[d] - g.origin[d]) * g.invh;
+            affineFrameAlong(xi, K::base(xi), [&](int k) { return w[d][k]; }, g.h, f.b[d], f.r[d]);
+        }
+        return f;
     }
 
     /// The same offsets in cells, u[d][k] = (x_I - x_p) / h (APIC's transfers: with these, the
@@ -548,11 +611,13 @@ template <int D, class K> struct Stencil {
         }
     }
 
-    /// forEachAffine by rows: row(first node, N, Nt) with Nt the row's N_I (a + M (x_I - x_p)),
-    /// node by node (S x D numbers: the same operations as forEachAffine's, in the same order).
+    /// forEachAffine by rows, with M = m C: row(first node, N, Nt) with Nt the row's
+    /// N_I (a + M (x_I - x_p)), node by node (S x D numbers: the same operations as
+    /// forEachAffine's, in the same order). (M is formed here, column by column: as an Eigen
+    /// temporary it went through the stack, and reading it back waited on the stores.)
     template <class Row>
-    EMP_ALWAYS_INLINE void forEachRowAffine(const Grid<D>& g, const double (*o)[S], const Vec<D>& a, const Mat<D>& M,
-                                            Row&& row) const
+    EMP_ALWAYS_INLINE void forEachRowAffine(const Grid<D>& g, const double (*o)[S], const Vec<D>& a, double m,
+                                            const Mat<D>& C, Row&& row) const
     {
         constexpr int E = S * D;
         double N[S];
@@ -561,7 +626,8 @@ template <int D, class K> struct Stencil {
             // The 3-vectors in 4-lane vectors (Lane3): GCC left the groups of three scalar. A
             // row's nine numbers are packed from its three nodes' products by two shuffles.
             typedef Lane3::Bits Bits;
-            const Lane3 a3 = Lane3::of(a), m0 = Lane3::of(M.col(0)), m1 = Lane3::of(M.col(1)), m2 = Lane3::of(M.col(2));
+            const Lane3 a3 = Lane3::of(a), m0 = m * Lane3::of(C.col(0)), m1 = m * Lane3::of(C.col(1)),
+                        m2 = m * Lane3::of(C.col(2));
             Lane3 x3[S];
             for (int i = 0; i < S; ++i) x3[i] = o[0][i] * m0;
 #pragma GCC unroll 4
@@ -586,6 +652,7 @@ template <int D, class K> struct Stencil {
             }
             return;
         }
+        const Mat<D> M = m * C;
         double x[E];
         for (int i = 0; i < S; ++i)
             for (int d = 0; d < D; ++d) x[i * D + d] = o[0][i] * M(d, 0);

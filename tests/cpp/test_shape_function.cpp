@@ -478,10 +478,26 @@ template <int D> void checkComputeRun()
             for (std::size_t begin = 0; begin < x.size();) {
                 const int len = 1 + static_cast<int>((begin * 13) % R);
                 const int m = std::min<int>(len, static_cast<int>(x.size() - begin));
-                std::vector<St> run(m), one(m);
-                St::template computeRun<R>(m, [&](int i) -> const Vec<D>& { return x[begin + i]; }, g, half, run.data());
+                std::vector<St> run(m), one(m), withFrames(m);
+                std::vector<typename St::AffineFrame> frames(m);
+                const auto xOf = [&](int i) -> const Vec<D>& { return x[begin + i]; };
+                St::template computeRun<R>(m, xOf, g, half, run.data());
+                St::template computeRun<R>(m, xOf, g, half, withFrames.data(), frames.data());
                 for (int i = 0; i < m; ++i) {
                     one[i].compute(x[begin + i], g, half);
+                    ASSERT_EQ(std::memcmp(&withFrames[i], &run[i], sizeof run[i]), 0);
+                    // APIC's frame: from the lanes, per point, and from the plain offsets and
+                    // moment diagonal (cellOffsets, momentDiagonal), bitwise.
+                    const typename St::AffineFrame f = one[i].affineFrame(x[begin + i], g);
+                    ASSERT_EQ(std::memcmp(&frames[i], &f, sizeof f), 0) << emp::name(w);
+                    double uo[D][St::S];
+                    one[i].cellOffsets(x[begin + i], g, uo);
+                    const Vec<D> du = one[i].momentDiagonal(uo);
+                    for (int d = 0; d < D; ++d) {
+                        for (int k = 0; k < St::S; ++k) ASSERT_EQ(f.b[d] + k, uo[d][k]);
+                        ASSERT_GT(du[d], 0);
+                        ASSERT_EQ(f.r[d], 1.0 / (g.h * du[d])) << "d " << d;
+                    }
                     ASSERT_EQ(run[i].first, one[i].first) << emp::name(w);
                     // The lattice coordinates of the base node: from the stored index (baseOf),
                     // from the position as the passes find them again (baseAt), and the kernel's.
@@ -556,7 +572,7 @@ template <int D, class K> void checkRowForms()
                 force[I] -= t;
                 grav[I] += N * fb - t;
             });
-            st.forEachAffine(g, o, a0, M, [&](int I, double N, const Vec<D>& m) { aff[I] += N * m; });
+            st.forEachAffine(g, o, a0, Mat<D>(mp * M), [&](int I, double N, const Vec<D>& m) { aff[I] += N * m; });
             // row forms, in the lanes' width
             std::vector<double> mass2 = mass0;
             std::vector<Vec<D>> mom2 = field0, aff2 = field0, force2 = field0, grav2 = field0;
@@ -573,7 +589,7 @@ template <int D, class K> void checkRowForms()
                         h[e] += N[e / D] * fb[e % D] - t[e];
                     }
                 });
-                st.forEachRowAffine(g, o, a0, M, [&](int I0, const double*, const double* Nt) EMP_LAMBDA_INLINE {
+                st.forEachRowAffine(g, o, a0, mp, M, [&](int I0, const double*, const double* Nt) EMP_LAMBDA_INLINE {
                     double* q = aff2[I0].data();
                     for (int e = 0; e < S * D; ++e) q[e] += Nt[e];
                 });
