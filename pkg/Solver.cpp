@@ -493,15 +493,15 @@ template <int D, class K> EMP_ALWAYS_INLINE void Solver<D, K>::corotationalStres
 }
 
 template <int D, class K>
-EMP_ALWAYS_INLINE void Solver<D, K>::corotationalOfRun(const int* ids, const St* st, int n, double dt)
+EMP_ALWAYS_INLINE void Solver<D, K>::corotationalOfRun(const int* ids, const St* st, int n, double dt, double* J)
 {
     // As lawOfRun: in 2D, a run whose points share a law with the pointwise response goes
     // through the whole update (deformation gradient, polar decomposition, law, Cauchy stress) as
     // one vectorised loop; otherwise point by point.
     if constexpr (D == 2) {
-        if (withSharedPointwiseLaw(ids, n, [&](auto l) { corotationalOfRun2<decltype(l)>(ids, st, n, dt); })) return;
+        if (withSharedPointwiseLaw(ids, n, [&](auto l) { corotationalOfRun2<decltype(l)>(ids, st, n, dt, J); })) return;
     } else {
-        corotationalOfRun3(ids, st, n, dt);
+        corotationalOfRun3(ids, st, n, dt, J);
         return;
     }
     // Point by point: the run's velocity gradients first (one tight loop of stencil sums, as in
@@ -514,13 +514,14 @@ EMP_ALWAYS_INLINE void Solver<D, K>::corotationalOfRun(const int* ids, const St*
     for (int i = 0; i < n; ++i) {
         Mat<D>& F = points_.deformationGradient[ids[i]];
         F = (Mat<D>::Identity() - dt * L[i]).inverse() * F;
+        J[i] = F.determinant();
         corotationalStress(ids[i]);
     }
 }
 
 template <int D, class K>
 template <class Law>
-EMP_ALWAYS_INLINE void Solver<D, K>::corotationalOfRun2(const int* ids, const St* st, int n, double dt)
+EMP_ALWAYS_INLINE void Solver<D, K>::corotationalOfRun2(const int* ids, const St* st, int n, double dt, double* J)
 {
     // corotationalOfRun's point-by-point update for n points, each lane one point through the
     // same operations: the velocity gradients first (stencil sums, point by point), then the
@@ -540,6 +541,7 @@ EMP_ALWAYS_INLINE void Solver<D, K>::corotationalOfRun2(const int* ids, const St
     forLanes(n, [&](int i) EMP_LAMBDA_INLINE {
         const Plain2 F = deformationUpdate2(dt, {l[0][i], l[1][i], l[2][i], l[3][i]}, {f[0][i], f[1][i], f[2][i], f[3][i]});
         f[0][i] = F.xx, f[1][i] = F.xy, f[2][i] = F.yx, f[3][i] = F.yy;
+        J[i] = F.xx * F.yy - F.yx * F.xy;  // (Eigen's 2 x 2 determinant)
         double cr, sr;
         Plain2 U, s;
         ok[i] = polarDecomposition2(F, cr, sr, U) ? 1.0 : 0.0;
@@ -563,7 +565,7 @@ EMP_ALWAYS_INLINE void Solver<D, K>::corotationalOfRun2(const int* ids, const St
 }
 
 template <int D, class K>
-EMP_NOINLINE void Solver<D, K>::corotationalOfRun3(const int* ids, const St* st, int n, double dt)
+EMP_NOINLINE void Solver<D, K>::corotationalOfRun3(const int* ids, const St* st, int n, double dt, double* J)
 {
     // corotationalOfRun's point-by-point update for n 3D points, its algebra lane by lane as in
     // corotationalOfRun2. The polar decomposition's Newton iteration runs over all lanes until the last
@@ -598,7 +600,8 @@ EMP_NOINLINE void Solver<D, K>::corotationalOfRun3(const int* ids, const St* st,
             const Plain3 F = product3(inverse3<false>(A), load(f, i));
             store(f, i, F);
             store(x, i, F);
-            state[i] = determinant3(F) > 0 ? 1.0 : 0.0;
+            J[i] = determinant3(F);
+            state[i] = J[i] > 0 ? 1.0 : 0.0;
         }
         // polarDecomposition's iteration (state 2: converged; 1 after 40 iterations: refused).
         // One iteration takes the lanes still iterating one Newton step from `from` into `to`
@@ -706,14 +709,13 @@ template <int D, class K> Mat<D> Solver<D, K>::spatialStress(int p, const Mat<D>
 
 template <int D, class K>
 template <bool withGravity, bool corotational>
-EMP_ALWAYS_INLINE void Solver<D, K>::scatterInternalForce(int p, const St& st, const Vec<D>& gravity)
+EMP_ALWAYS_INLINE void Solver<D, K>::scatterInternalForce(int p, const St& st, const Vec<D>& gravity, double J)
 {
     // f_I += N_I m_p b - V_p sigma_p grad N_I (Eqs 13-14). Without gravity the body force term
     // is left out (the same sums: f + (0 - x) is f - x in floating point). The co-rotational
     // update's volume is the current one, J V_p (V_p sigma = V_0 tau, Kinematics.hpp).
     auto& g = grid_;
-    const double volume = corotational ? points_.volume[p] * points_.deformationGradient[p].determinant()
-                                       : points_.volume[p];
+    const double volume = corotational ? points_.volume[p] * J : points_.volume[p];
     const Mat<D> vs = volume * full(points_.stress[p]);
     if (st.regular()) {  // (the same sums by rows: Stencil::forEachRowProjected)
         const Vec<D> fb = withGravity ? Vec<D>(points_.mass(p) * gravity) : Vec<D>::Zero();
@@ -747,8 +749,9 @@ template <int D, class K> void Solver<D, K>::stressAndInternalForce(double dt, i
     if (dist_) between = [&](int k) { dist_->afterPhase(k, schedule_.numPhases(), grid_, fields); };
     const auto pass = [&](auto withGravity, auto corotational) {
         schedule_.scatterRuns(nThreads, stressRun, [&](int begin, int end) {
+            double J[stressRun];  // (the co-rotational update's det F, for the current volume)
             if constexpr (decltype(corotational)::value) {
-                corotationalOfRun(&order[begin], &stencil_[begin], end - begin, dt);
+                corotationalOfRun(&order[begin], &stencil_[begin], end - begin, dt, J);
             } else {
                 const auto strains = [&]() EMP_LAMBDA_INLINE {
                     for (int k = begin; k < end; ++k) updateStrain(order[k], stencil_[k], dt);
@@ -762,7 +765,7 @@ template <int D, class K> void Solver<D, K>::stressAndInternalForce(double dt, i
             withLaneIsa([&]() EMP_LAMBDA_INLINE {  // (the rows' loops in the lanes' width)
                 for (int k = begin; k < end; ++k)
                     scatterInternalForce<decltype(withGravity)::value, decltype(corotational)::value>(
-                        order[k], stencil_[k], gravity);
+                        order[k], stencil_[k], gravity, decltype(corotational)::value ? J[k - begin] : 0.0);
             });
         }, between);
     };

@@ -279,22 +279,26 @@ private:
     /// The co-rotational update's stress of point p from its deformation gradient (Kinematics.hpp).
     void corotationalStress(int p);
     /// The co-rotational update of the n <= stressRun points ids with stencils st (point by
-    /// point: F, then corotationalStress; or corotationalOfRun2).
-    void corotationalOfRun(const int* ids, const St* st, int n, double dt);
+    /// point: F, then corotationalStress; or corotationalOfRun2, corotationalOfRun3). J[i] gets
+    /// det F of point ids[i], as Eigen's determinant() of its new F gives it (the force pass's
+    /// volume, scatterInternalForce).
+    void corotationalOfRun(const int* ids, const St* st, int n, double dt, double* J);
     /// The same for n 2D points at once, on plain numbers (Kinematics.hpp, Plain2) and the law's
     /// pointwise response: bitwise the per-point update.
-    template <class Law> void corotationalOfRun2(const int* ids, const St* st, int n, double dt);
+    template <class Law> void corotationalOfRun2(const int* ids, const St* st, int n, double dt, double* J);
     /// The same for n 3D points: the algebra (F, polar decomposition, Cauchy stress) in
     /// vectorised loops on plain numbers (Kinematics.hpp, Plain3), the law through its response3
     /// where the points share one (else point by point). Bitwise the per-point update.
-    void corotationalOfRun3(const int* ids, const St* st, int n, double dt);
+    void corotationalOfRun3(const int* ids, const St* st, int n, double dt, double* J);
     /// When the n points ids share a law with the pointwise response of dimension D (Law.hpp,
     /// response2 or response3): f(law) and true; otherwise false.
     template <class F> bool withSharedPointwiseLaw(const int* ids, int n, F&& f);
     /// The Cauchy stress R s U R^T / J of a co-rotated stress s at point p's deformation gradient.
     Mat<D> spatialStress(int p, const Mat<D>& s) const;
+    /// f_I += N_I m_p b - V sigma_p grad N_I; V is the current volume J V_p with the
+    /// co-rotational update (J: det F from corotationalOfRun), else V_p (J unused).
     template <bool withGravity, bool corotational>
-    void scatterInternalForce(int p, const St& st, const Vec<D>& gravity);
+    void scatterInternalForce(int p, const St& st, const Vec<D>& gravity, double J);
     /// The stencil of one point computed on its own (serial stages: erosion, tractions).
     St stencilOf(int p);
     /// Maps point p's support onto the twins of this step (across the cracks, or its body's)
