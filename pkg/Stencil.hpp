@@ -4,6 +4,7 @@
 // the stress/force pass and by G2P.
 #pragma once
 #include <algorithm>
+#include <cstddef>
 #include <type_traits>
 
 #include "Grid.hpp"
@@ -118,7 +119,12 @@ template <int D, class K> struct Stencil {
     static EMP_ALWAYS_INLINE void computeRun(int n, X&& x, const Grid<D>& g, const HalfWidth& lp, Stencil* out,
                                              AffineFrame* frames)
     {
-        alignas(64) double xs[D][R], ws[D][S][R], dws[D][S][R];
+        // The weights and their derivatives, value m of lane i at wd[m][i] (m = (d, k) of w, then
+        // of dw: the order of a Stencil's w and dw).
+        constexpr int M = 2 * D * S;
+        alignas(64) double xs[D][R], wd[M][R];
+        double (*const ws)[S][R] = reinterpret_cast<double (*)[S][R]>(&wd[0][0]);
+        double (*const dws)[S][R] = reinterpret_cast<double (*)[S][R]>(&wd[D * S][0]);
         alignas(64) double fb[affine ? D : 1][R], fr[affine ? D : 1][R];
         alignas(64) int bs[D][R];
         for (int i = 0; i < n; ++i) {
@@ -147,14 +153,36 @@ template <int D, class K> struct Stencil {
             int base[D];
             for (int d = 0; d < D; ++d) base[d] = bs[d][i];
             st.first = firstOf(g, base);
-            for (int d = 0; d < D; ++d) {
-                for (int k = 0; k < S; ++k) {
-                    st.w[d][k] = ws[d][k][i];
-                    st.dw[d][k] = dws[d][k][i];
-                }
-            }
             st.remap = -1;
         }
+        withLaneIsa([&]() EMP_LAMBDA_INLINE { transposeInto<R, M>(n, wd, out); });
+    }
+
+    /// Copies value m of lane i, v[m][i], to the i-th stencil's w and dw (value m at offset m
+    /// from w[0][0], the order of those two arrays): a transposition, four lanes by four values
+    /// at a time through shuffles of 4-lane vectors (one by one, it took 24 scalar loads and
+    /// stores per 2D point, 8 % of the 2D step: doc/performance.md, "Session 29").
+    template <int R, int M> static EMP_ALWAYS_INLINE void transposeInto(int n, const double (*v)[R], Stencil* out)
+    {
+        static_assert(M == 2 * D * S, "w and dw");
+        typedef double V4 __attribute__((vector_size(4 * sizeof(double))));
+        const auto at = [&](int i) EMP_LAMBDA_INLINE { return reinterpret_cast<char*>(&out[i]) + offsetof(Stencil, w); };
+        int i = 0;
+        for (; i + 4 <= n; i += 4) {
+            for (int m = 0; m + 4 <= M; m += 4) {
+                V4 a[4];
+                for (int q = 0; q < 4; ++q) __builtin_memcpy(&a[q], &v[m + q][i], sizeof(V4));
+                const V4 lo01 = __builtin_shufflevector(a[0], a[1], 0, 4, 2, 6), hi01 = __builtin_shufflevector(a[0], a[1], 1, 5, 3, 7);
+                const V4 lo23 = __builtin_shufflevector(a[2], a[3], 0, 4, 2, 6), hi23 = __builtin_shufflevector(a[2], a[3], 1, 5, 3, 7);
+                const V4 o[4] = {__builtin_shufflevector(lo01, lo23, 0, 1, 4, 5), __builtin_shufflevector(hi01, hi23, 0, 1, 4, 5),
+                                 __builtin_shufflevector(lo01, lo23, 2, 3, 6, 7), __builtin_shufflevector(hi01, hi23, 2, 3, 6, 7)};
+                for (int q = 0; q < 4; ++q) __builtin_memcpy(at(i + q) + m * sizeof(double), &o[q], sizeof(V4));
+            }
+            for (int m = M / 4 * 4; m < M; ++m)
+                for (int q = 0; q < 4; ++q) __builtin_memcpy(at(i + q) + m * sizeof(double), &v[m][i + q], sizeof(double));
+        }
+        for (; i < n; ++i)
+            for (int m = 0; m < M; ++m) __builtin_memcpy(at(i) + m * sizeof(double), &v[m][i], sizeof(double));
     }
 
     /// Whether the support of the point at x (this stencil's point) can touch a marked node: it
