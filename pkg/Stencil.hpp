@@ -35,10 +35,14 @@ struct Lane3 {
         // and the reload waited on the two stores, about twice the time of the sums it served.)
         return Lane3{reinterpret_cast<V>(reinterpret_cast<Bits>(loaded) & Bits{-1, -1, -1, 0})};
     }
+    /// a in the first three lanes; the fourth repeats the third (forEachRowAffine, its only user,
+    /// reads no sum of it). Built from two 2-lane halves: as V{a0, a1, a2, 0} GCC assembled the
+    /// vector in memory, and reading it back waited on the narrower stores. (A zero fourth lane
+    /// made GCC emit a register form of vmovq that valgrind 3.19 does not decode.)
     static EMP_ALWAYS_INLINE Lane3 of(const Vec<3>& a)
     {
         typedef double V2 __attribute__((vector_size(2 * sizeof(double))));
-        const V2 lo{a[0], a[1]}, hi{a[2], 0.0};
+        const V2 lo{a[0], a[1]}, hi{a[2], a[2]};
         return Lane3{__builtin_shufflevector(lo, hi, 0, 1, 2, 3)};
     }
     friend EMP_ALWAYS_INLINE Lane3 operator+(const Lane3& a, const Lane3& b) { return Lane3{a.v + b.v}; }
