@@ -117,6 +117,8 @@ def test_plot_data_sums_the_points_in_one_pass_bitwise_as_the_four_diagnostics(d
     ek, ee, p, l = s.diagnostics()
     assert ek == s.kineticEnergy() and ee == s.elasticEnergy() and ee > 0
     assert tuple(p) == tuple(s.linearMomentum()) and tuple(l) == tuple(s.angularMomentum())
+    # (bit for bit, signed zeros included: in 2D diagnostics sums only the z component)
+    assert np.array(l, dtype=float).tobytes() == np.array(s.angularMomentum(), dtype=float).tobytes()
     d = mpm.plotData()
     assert d["blk_Ek"] == s.kineticEnergy() and d["blk_Ee"] == s.elasticEnergy()
     assert d["blk_balance"] == mpm.energyBalance()["balance"]
