@@ -852,10 +852,7 @@ template <int D, class K> void Solver<D, K>::tractionForces()
             St scratch;
             const St& st = stepStencil(p, scratch, slot);
             const Vec<D> f = t * (points_.volume[p] / tc.layer);
-            if (!dist_)  // (addNodeForce's own sum, without the call per node)
-                st.forEach(g, [&](int I, double N, const Vec<D>&) { g.force[I] += N * f; });
-            else
-                st.forEach(g, [&](int I, double N, const Vec<D>&) { addNodeForce(I, N * f, 1 + static_cast<std::int64_t>(c), k); });
+            st.forEach(g, [&](int I, double N, const Vec<D>&) { addNodeForce(I, N * f, 1 + static_cast<std::int64_t>(c), k); });
         });
     }
 }

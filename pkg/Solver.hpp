@@ -313,7 +313,16 @@ private:
     /// f(I) for every node this process works on: all of them, or a distributed run's planes.
     template <class F> void forEachWorkNode(int nThreads, F&& f);
     /// Adds a serial stage's force f to node I; key orders it in a distributed run (NodeRecord).
-    void addNodeForce(int I, const Vec<D>& f, std::int64_t key0, std::int64_t key1);
+    /// Inline on one process (the sum itself, no call per node); addDistributedNodeForce otherwise.
+    void addNodeForce(int I, const Vec<D>& f, std::int64_t key0, std::int64_t key1)
+    {
+        if (!dist_) {
+            grid_.force[I] += f;
+            return;
+        }
+        addDistributedNodeForce(I, f, key0, key1);
+    }
+    void addDistributedNodeForce(int I, const Vec<D>& f, std::int64_t key0, std::int64_t key1);
     /// f(point, position in the list) for every point of traction condition t on this process.
     template <class F> void forEachTractionPoint(std::size_t t, F&& f) const;
     /// The node range [lo, hi) a distributed run's rank owns (sums over nodes count it once).

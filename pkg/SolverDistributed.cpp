@@ -101,13 +101,12 @@ template <int D, class K> void Solver<D, K>::ownedNodes(int& lo, int& hi) const
 }
 
 template <int D, class K>
-void Solver<D, K>::addNodeForce(int I, const Vec<D>& f, std::int64_t key0, std::int64_t key1)
+void Solver<D, K>::addDistributedNodeForce(int I, const Vec<D>& f, std::int64_t key0, std::int64_t key1)
 {
-    const int regular = !dist_ ? I : I < grid_.numNodes() ? I : twinRegular_[I - grid_.numNodes()];
+    const int regular = I < grid_.numNodes() ? I : twinRegular_[I - grid_.numNodes()];
     // (With columns of ranks, every contribution to a node other ranks write too is a record.)
-    int side = 0;
-    if (dist_)  // (with columns of ranks, every contribution to a node other ranks write too is a record)
-        side = dist_->rankColumns() > 1 ? (dist_->sharedNode(regular) ? -1 : 0) : dist_->sharedSide(regular / grid_.stride[D - 1]);
+    const int side = dist_->rankColumns() > 1 ? (dist_->sharedNode(regular) ? -1 : 0)
+                                              : dist_->sharedSide(regular / grid_.stride[D - 1]);
     if (side == 0) {
         grid_.force[I] += f;
         return;
@@ -294,7 +293,7 @@ template <int D, class K> void Solver<D, K>::checkDistributable() const
 #define EMP_INSTANTIATE(D, K)                                                                     \
     template void Solver<D, K>::distributePoints();                                               \
     template void Solver<D, K>::ownedNodes(int&, int&) const;                                     \
-    template void Solver<D, K>::addNodeForce(int, const Vec<D>&, std::int64_t, std::int64_t);     \
+    template void Solver<D, K>::addDistributedNodeForce(int, const Vec<D>&, std::int64_t, std::int64_t); \
     template void Solver<D, K>::transportCracks(double);                                          \
     template void Solver<D, K>::distribute(std::shared_ptr<Transport>, int);                      \
     template void Solver<D, K>::distributeSetup(std::shared_ptr<Transport>, int);                 \
