@@ -14,6 +14,7 @@
 //   bench_block [--sizes 1e5,1e6] [--threads 1,2] [--min-time 3] [--warmup 3]
 //               [--cases gimp2,linear2,gimp3] [--size3d 1e5] [--steps N] [--amp 0.01] [--quick]
 //               [--transfer FLIP|APIC] [--stress-update smallStrain|corotational] [--gravity G]
+//               [--modes "FLIP smallStrain,APIC corotational" [--chunk N]]
 //
 // --amp A sets the initial velocity amplitude to A times the wave speed (strains of order A).
 // With the default 1e-2 the points leave their lattice sites within a few steps; with 1e-5
@@ -23,6 +24,13 @@
 // --steps N times exactly N steps per run instead of --min-time (the checksums then compare
 // builds: an optimisation that keeps the arithmetic must keep them).
 // --quick is --sizes 2e4 --size3d 2e4 --min-time 0.3 --warmup 1.
+// --modes "T U,T U,..." (transfer and stress update per mode) measures what the options cost in
+// one process: it builds the block once per mode and steps the scenes in turn, --chunk steps
+// (default 1) each, in alternating order, on the first thread count, until each has run
+// --min-time s (or --steps steps). On a shared machine whose speed changes from second to
+// second, every round's modes then see the same machine. Printed per mode: its rate, its time
+// per step over the first mode's (the ratio of the totals) and the median of the rounds' own
+// ratios with its quartiles; JSON lines carry "mode" and "time_ratio_to_first_mode".
 // Output (stdout): one progress line per run, then a table, the peak resident set of the process
 // (VmHWM) and its ratio to the points of the largest scene, then one JSON object per line
 // (prefix "JSON ") per run, with resident_bytes_per_point: the resident set the scene added
@@ -43,6 +51,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <algorithm>
+#include <memory>
 #include <ctime>
 #include <random>
 #include <sstream>
@@ -70,6 +80,8 @@ struct Options {
     double gravity = 0;  ///< m/s2 along -y
     bool mpi = false;
     int columnCells = 0, rankColumns = 1;  ///< the scheduler's columns; --mpi: columns of ranks
+    std::vector<std::pair<emp::Transfer, emp::StressUpdate>> modes;  ///< --modes: interleaved scenes
+    int chunk = 1;  ///< --modes: steps per scene and turn
 };
 
 /// The MPI transport, counting the bytes this rank sends (exchanges, reductions, gathers).
@@ -126,6 +138,8 @@ struct Result {
     double bytesPerPoint = 0;  ///< resident set added by the scene (after its steps) per point
     std::uint64_t checksum = 0;
     bool checked = false, deterministic = true;
+    std::string mode;  ///< --modes: "TRANSFER+STRESSUPDATE"
+    double timeRatio = 0, medianRatio = 0, q1 = 0, q3 = 0;  ///< --modes: time per step over the first mode's
     int ranks = 1;
     double bytesSentPerStep = 0;  ///< --mpi: the most any rank sent per step
 };
@@ -155,7 +169,8 @@ std::vector<std::string> splitNames(const std::string& s)
     std::fprintf(stderr,
                  "bench_block: %s\nusage: bench_block [--sizes 1e5,1e6] [--threads 1,2] [--min-time S]\n"
                  "       [--warmup N] [--cases gimp2,linear2,gimp3] [--size3d N] [--steps N] [--amp A] [--quick]\n"
-                 "       [--column-cells W] [--mpi [--rank-columns C]]\n",
+                 "       [--column-cells W] [--mpi [--rank-columns C]] [--transfer T] [--stress-update U]\n"
+                 "       [--modes \"T U,T U,...\" [--chunk N]]\n",
                  msg);
     std::exit(2);
 }
@@ -188,6 +203,18 @@ Options parse(int argc, char** argv)
             o.stressUpdate = emp::stressUpdateOf(next());
             if (o.stressUpdate == emp::StressUpdate::unset) usage("--stress-update takes smallStrain or corotational");
         }
+        else if (a == "--modes") {
+            for (const auto& m : splitNames(next())) {
+                std::stringstream ss(m);
+                std::string t, u, extra;
+                ss >> t >> u;
+                const auto mode = std::make_pair(emp::transferOf(t), emp::stressUpdateOf(u));
+                if (mode.first == emp::Transfer::unset || mode.second == emp::StressUpdate::unset || (ss >> extra))
+                    usage(("--modes takes 'TRANSFER STRESSUPDATE' pairs separated by commas (FLIP|APIC, "
+                           "smallStrain|corotational), not '" + m + "'").c_str());
+                o.modes.push_back(mode);
+            }
+        } else if (a == "--chunk") o.chunk = std::stoi(next());
         else if (a == "--quick") {
             o.sizes = {2e4};
             o.size3d = 2e4;
@@ -199,6 +226,8 @@ Options parse(int argc, char** argv)
     if (o.sizes.empty() || o.threads.empty() || o.cases.empty()) usage("empty list");
     for (int t : o.threads)
         if (t < 1) usage("thread counts must be >= 1");
+    if (o.chunk < 1) usage(("--chunk must be >= 1, not " + std::to_string(o.chunk)).c_str());
+    if (!o.modes.empty() && o.mpi) usage("--modes runs in one process, without --mpi");
     if (o.mpi && o.steps <= 0) usage("--mpi needs --steps N (every rank steps the same number of times)");
     if (o.rankColumns > 1 && (!o.mpi || o.columnCells <= 0)) usage("--rank-columns needs --mpi and --column-cells W > 0");
     return o;
@@ -350,6 +379,78 @@ Result runOnce(const std::string& name, const std::array<int, D>& n, int threads
     return r;
 }
 
+/// --modes: one block per mode, stepped in turn (--chunk steps each, the order reversed every
+/// round) on the first thread count until each has run minTime (or o.steps steps). The rounds'
+/// CPU times pair the modes under the same state of the machine.
+template <int D, class K>
+void runModes(const std::string& name, const std::array<int, D>& n, const Options& o, std::vector<Result>& out)
+{
+    const int threads = o.threads.front(), M = static_cast<int>(o.modes.size());
+    std::vector<std::unique_ptr<emp::Solver<D, K>>> solvers;
+    std::vector<double> dts;
+    for (const auto& [transfer, update] : o.modes) {
+        Options om = o;
+        om.transfer = transfer;
+        om.stressUpdate = update;
+        solvers.push_back(std::make_unique<emp::Solver<D, K>>(makeBlock<D, K>(n, o.amp, om)));
+        dts.push_back(0.5 * solvers.back()->criticalTimeStep());
+        for (int i = 0; i < o.warmup; ++i) solvers.back()->step(dts.back(), threads);
+    }
+    std::vector<double> wall(M, 0), cpu(M, 0);
+    std::vector<std::vector<double>> perRound(M);  // CPU seconds per step of each round
+    long steps = 0;
+    const auto done = [&] {
+        if (o.steps > 0) return steps >= o.steps;
+        for (int m = 0; m < M; ++m)
+            if (wall[m] < o.minTime) return false;
+        return true;
+    };
+    for (int round = 0; !done(); ++round) {
+        for (int k = 0; k < M; ++k) {
+            const int m = round % 2 == 0 ? k : M - 1 - k;
+            const auto t0 = Clock::now();
+            const double c0 = cpuSeconds();
+            for (int i = 0; i < o.chunk; ++i) solvers[m]->step(dts[m], threads);
+            const double c = cpuSeconds() - c0;
+            cpu[m] += c;
+            wall[m] += std::chrono::duration<double>(Clock::now() - t0).count();
+            perRound[m].push_back(c / o.chunk);
+        }
+        steps += o.chunk;
+    }
+    const auto quantile = [](std::vector<double> v, double q) {
+        std::sort(v.begin(), v.end());
+        const double at = q * (v.size() - 1);
+        const std::size_t i = static_cast<std::size_t>(at);
+        return i + 1 < v.size() ? v[i] + (at - i) * (v[i + 1] - v[i]) : v[i];
+    };
+    for (int m = 0; m < M; ++m) {
+        Result r;
+        r.caseName = name;
+        r.points = static_cast<long>(solvers[m]->points().size());
+        r.threads = threads;
+        r.steps = steps;
+        r.wall = wall[m];
+        r.cpu = cpu[m];
+        r.pps = static_cast<double>(r.points) * steps / wall[m];
+        r.ratio = 1;
+        r.checksum = checksum(solvers[m]->points());
+        r.mode = std::string(emp::name(o.modes[m].first)) + "+" + emp::name(o.modes[m].second);
+        std::vector<double> ratios;
+        for (std::size_t i = 0; i < perRound[m].size(); ++i) ratios.push_back(perRound[m][i] / perRound[0][i]);
+        r.timeRatio = cpu[m] / cpu[0];
+        r.medianRatio = quantile(ratios, 0.5);
+        r.q1 = quantile(ratios, 0.25);
+        r.q3 = quantile(ratios, 0.75);
+        std::printf("  %-10s %9ld points  %2d threads  %6ld steps  %-26s %.3e particle-steps/CPU s  "
+                    "time/step over the first mode: %.3f (rounds: median %.3f, quartiles %.3f-%.3f)\n",
+                    name.c_str(), r.points, threads, steps, r.mode.c_str(), r.points * steps / cpu[m], r.timeRatio,
+                    r.medianRatio, r.q1, r.q3);
+        std::fflush(stdout);
+        out.push_back(r);
+    }
+}
+
 template <int D, class K>
 void runCase(const std::string& name, double size, const Options& o, std::vector<Result>& out)
 {
@@ -361,6 +462,10 @@ void runCase(const std::string& name, double size, const Options& o, std::vector
     } else {
         const int m = std::max(4, static_cast<int>(std::lround(std::cbrt(size))));
         n = {m, m, m};
+    }
+    if (!o.modes.empty()) {
+        runModes<D, K>(name, n, o, out);
+        return;
     }
     long firstSteps = 0;
     double firstPps = 0;
@@ -381,6 +486,18 @@ void runCase(const std::string& name, double size, const Options& o, std::vector
         std::fflush(stdout);
         out.push_back(r);
     }
+}
+
+/// The JSON fields of a --modes run ("" otherwise).
+std::string modeFields(const Result& r)
+{
+    if (r.mode.empty()) return "";
+    char b[256];
+    std::snprintf(b, sizeof b,
+                  ", \"mode\": \"%s\", \"time_ratio_to_first_mode\": %.4f, \"median_round_ratio\": %.4f, "
+                  "\"round_ratio_q1\": %.4f, \"round_ratio_q3\": %.4f",
+                  r.mode.c_str(), r.timeRatio, r.medianRatio, r.q1, r.q3);
+    return b;
 }
 
 }  // namespace
@@ -433,10 +550,10 @@ int main(int argc, char** argv)
         std::printf("JSON {\"case\": \"%s\", \"points\": %ld, \"threads\": %d, \"steps\": %ld, \"wall_time_s\": %.4f, \"cpu_time_s\": %.4f, "
                     "\"particle_steps_per_s\": %.6g, \"ratio_to_first_thread_count\": %.4f, \"resident_bytes_per_point\": %.1f, "
                     "\"checksum\": \"%016" PRIx64 "\", \"bitwise_equal_to_first\": %s, \"ranks\": %d, \"bytes_sent_per_step\": %.0f, "
-                    "\"isa\": \"%s\", \"lanes\": \"%s\"}\n",
+                    "\"isa\": \"%s\", \"lanes\": \"%s\"%s}\n",
                     r.caseName.c_str(), r.points, r.threads, r.steps, r.wall, r.cpu, r.pps, r.ratio, r.bytesPerPoint, r.checksum,
                     r.checked ? (r.deterministic ? "true" : "false") : "null", r.ranks, r.bytesSentPerStep, isa,
-                    emp::name(emp::laneIsa()));
+                    emp::name(emp::laneIsa()), modeFields(r).c_str());
     if (!allSame) {
         std::fprintf(stderr, "bench_block: results differ between thread counts (determinism broken)\n");
         return 3;
