@@ -547,7 +547,7 @@ int main(int argc, char** argv)
                     return statusBytes("VmHWM:") / most;
                 }());
     for (const auto& r : results)
-        std::printf("JSON {\"case\": \"%s\", \"points\": %ld, \"threads\": %d, \"steps\": %ld, \"wall_time_s\": %.4f, \"cpu_time_s\": %.4f, "
+        std::printf("JSON {\"case\": \"%s\", \"points\": %ld, \"threads\": %d, \"steps\": %ld, \"wall_time_s\": %.6f, \"cpu_time_s\": %.6f, "
                     "\"particle_steps_per_s\": %.6g, \"ratio_to_first_thread_count\": %.4f, \"resident_bytes_per_point\": %.1f, "
                     "\"checksum\": \"%016" PRIx64 "\", \"bitwise_equal_to_first\": %s, \"ranks\": %d, \"bytes_sent_per_step\": %.0f, "
                     "\"isa\": \"%s\", \"lanes\": \"%s\"%s}\n",
