@@ -176,10 +176,10 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
 {
     // Nodal mass (Eq 12) and momentum P^{n-1/2} (Eq 25). The shape functions (15) are evaluated
     // here once per point and kept for the stress/force pass and G2P.
-    auto& P = points_;
     auto& g = grid_;
     const int mapping = mapping_;
-    const auto& order = schedule_.order();
+    using Arrays = PassArrays;  // (made in the loop's function: passArrays)
+    const auto arrays = [&]() EMP_LAMBDA_INLINE { return passArrays(); };
     const HalfWidth half(lp_);  // (its reciprocal once, not per point)
     // One instantiation per transfer, so that FLIP's is the paper's loop alone (the inliner
     // then treats it as before the APIC option existed: bench_block checksums and speed). Both
@@ -187,9 +187,10 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
     // APIC 9 % more instructions.
     // `frame` is the point's APIC frame when its run computed it (inRuns), or null.
     const auto body = [&](auto apic, auto computed) {
-        return [&](int k, const typename St::AffineFrame* frame) EMP_LAMBDA_INLINE {
-            const int p = order[k];
-            St& st = stencil_[k];
+        return [&](const Arrays& A, int k, const typename St::AffineFrame* frame) EMP_LAMBDA_INLINE {
+            const auto& P = A.P;
+            const int p = A.order[k];
+            St& st = A.stencil[k];
             if constexpr (!decltype(computed)::value) st.compute(P.x[p], g, half);
             if (mapping && St::overlaps(P.x[p], g, markedLo_, markedHi_)) mapSupport(st, p, k);
             const double mp = P.mass(p);
@@ -197,16 +198,16 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
             if constexpr (!decltype(apic)::value) {
                 if (st.regular()) {  // (the same sums by rows: Stencil::forEachRow)
                     st.forEachRow(g, [&](int I0, const double* N) EMP_LAMBDA_INLINE {
-                        double* m = &g.mass[I0];
-                        double* q = g.momentum[I0].data();
+                        double* m = &A.mass[I0];
+                        double* q = A.momentum[I0].data();
                         for (int i = 0; i < S; ++i) m[i] += N[i] * mp;
                         for (int e = 0; e < S * D; ++e) q[e] += N[e / D] * mv[e % D];
                     });
                     return;
                 }
                 st.forEach(g, [&](int I, double N, const Vec<D>&) {
-                    g.mass[I] += N * mp;
-                    g.momentum[I] += N * mv;
+                    A.mass[I] += N * mp;
+                    A.momentum[I] += N * mv;
                 });
             } else {
                 // APIC: m_I v_I += N m_p (v_p + C_p (x_I - x_p)), C_p = B_p D_p^-1 at this position.
@@ -223,16 +224,16 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
                     Cu.col(d) = f.r[d] > 0 ? Vec<D>(Cu.col(d) * f.r[d]) : Vec<D>::Zero();
                 if (st.regular()) {
                     st.forEachRowAffine(g, u, mv, mp, Cu, [&](int I0, const double* N, const double* Nt) EMP_LAMBDA_INLINE {
-                        double* m = &g.mass[I0];
-                        double* q = g.momentum[I0].data();
+                        double* m = &A.mass[I0];
+                        double* q = A.momentum[I0].data();
                         for (int i = 0; i < S; ++i) m[i] += N[i] * mp;
                         for (int e = 0; e < S * D; ++e) q[e] += Nt[e];
                     });
                     return;
                 }
                 st.forEachAffine(g, u, mv, Mat<D>(mp * Cu), [&](int I, double N, const Vec<D>& m) {
-                    g.mass[I] += N * mp;
-                    g.momentum[I] += N * m;
+                    A.mass[I] += N * mp;
+                    A.momentum[I] += N * m;
                 });
             }
         };
@@ -247,14 +248,16 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
     const auto inRuns = [&](auto apic) {
         const auto point = body(apic, std::true_type{});
         return [&, point](int begin, int end) EMP_LAMBDA_INLINE {
-            const auto x = [&](int i) -> const Vec<D>& { return P.x[order[begin + i]]; };
+            const auto& order = schedule_.order();
+            const auto x = [&](int i) -> const Vec<D>& { return points_.x[order[begin + i]]; };
             typename St::AffineFrame frames[decltype(apic)::value ? stencilRun : 1];
             if constexpr (decltype(apic)::value)
                 St::template computeRun<stencilRun>(end - begin, x, g, half, &stencil_[begin], frames);
             else
                 St::template computeRun<stencilRun>(end - begin, x, g, half, &stencil_[begin]);
             withLaneIsa([&]() EMP_LAMBDA_INLINE {  // (the rows' loops in the lanes' width)
-                for (int k = begin; k < end; ++k) point(k, decltype(apic)::value ? &frames[k - begin] : nullptr);
+                const Arrays A = arrays();
+                for (int k = begin; k < end; ++k) point(A, k, decltype(apic)::value ? &frames[k - begin] : nullptr);
             });
         };
     };
@@ -262,7 +265,7 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
         if constexpr (K::laneEvaluation)
             if (laneIsa() != LaneIsa::baseline) return schedule_.scatterRuns(nThreads, stencilRun, inRuns(apic), between);
         const auto point = body(apic, std::false_type{});
-        schedule_.scatter(nThreads, [&](int k) EMP_LAMBDA_INLINE { point(k, nullptr); }, between);
+        schedule_.scatter(nThreads, [&](int k) EMP_LAMBDA_INLINE { point(arrays(), k, nullptr); }, between);
     };
     if (settings_.transfer == Transfer::apic)
         scatter(std::true_type{});
@@ -306,7 +309,9 @@ template <int D, class K> void Solver<D, K>::applyConditionsAfterVelocity(double
 
 // Forced inline (see Stencil.hpp): the per-point pieces must merge into the pass's loop; as
 // out-of-line calls they cost one call per point and keep the sums out of registers.
-template <int D, class K> EMP_ALWAYS_INLINE Mat<D> Solver<D, K>::velocityGradient(int p, const St& st) const
+template <int D, class K>
+template <class A>
+EMP_ALWAYS_INLINE Mat<D> Solver<D, K>::velocityGradient(const A& a, int p, const St& st) const
 {
     // Velocity gradient L = sum v_I grad N_I (Eq 27).
     const auto& g = grid_;
@@ -315,18 +320,30 @@ template <int D, class K> EMP_ALWAYS_INLINE Mat<D> Solver<D, K>::velocityGradien
         // can be empty (velocity unknown, set to 0) at a free face, and a rigid motion would
         // strain. Such a node takes the point's own velocity, so that the gradients still sum
         // to zero. (A C1 kernel's gradient vanishes with its weight: it never meets that case.)
-        const Vec<D> vp = points_.v[p];
-        return st.gradientOf(g, [&](int I) { return g.mass[I] > 0 ? g.velocity[I] : vp; });
+        const Vec<D> vp = a.P.v[p];
+        return st.gradientOf(g, [&](int I) { return a.mass[I] > 0 ? a.velocity[I] : vp; });
     } else {
-        return st.gradientOf(g, [&](int I) -> const Vec<D>& { return g.velocity[I]; });
+        return st.gradientOf(g, [&](int I) -> const Vec<D>& { return a.velocity[I]; });
     }
 }
 
-template <int D, class K> EMP_ALWAYS_INLINE void Solver<D, K>::updateStrain(int p, const St& st, double dt)
+template <int D, class K> EMP_ALWAYS_INLINE Mat<D> Solver<D, K>::velocityGradient(int p, const St& st) const
 {
-    auto& P = points_;
-    const Mat<D> L = velocityGradient(p, st);
-    auto& eps = P.strain[p];
+    const struct {
+        const double* mass;
+        const Vec<D>* velocity;
+        struct {
+            const Vec<D>* v;
+        } P;
+    } a{grid_.mass.data(), grid_.velocity.data(), {points_.v.data()}};
+    return velocityGradient(a, p, st);
+}
+
+template <int D, class K>
+EMP_ALWAYS_INLINE void Solver<D, K>::updateStrain(const PassArrays& a, int p, const St& st, double dt)
+{
+    const Mat<D> L = velocityGradient(a, p, st);
+    auto& eps = a.P.strain[p];
     if constexpr (D == 2)
         eps += Mat<D>((0.5 * dt) * (L + L.transpose()));  // strain increment (Eq 27; symmetric: Sym2)
     else
@@ -709,18 +726,19 @@ template <int D, class K> Mat<D> Solver<D, K>::spatialStress(int p, const Mat<D>
 
 template <int D, class K>
 template <bool withGravity, bool corotational>
-EMP_ALWAYS_INLINE void Solver<D, K>::scatterInternalForce(int p, const St& st, const Vec<D>& gravity, double J)
+EMP_ALWAYS_INLINE void Solver<D, K>::scatterInternalForce(const PassArrays& a, int p, const St& st, const Vec<D>& gravity, double J)
 {
     // f_I += N_I m_p b - V_p sigma_p grad N_I (Eqs 13-14). Without gravity the body force term
     // is left out (the same sums: f + (0 - x) is f - x in floating point). The co-rotational
     // update's volume is the current one, J V_p (V_p sigma = V_0 tau, Kinematics.hpp).
-    auto& g = grid_;
-    const double volume = corotational ? points_.volume[p] * J : points_.volume[p];
-    const Mat<D> vs = volume * full(points_.stress[p]);
+    const auto& g = grid_;
+    const auto& P = a.P;
+    const double volume = corotational ? P.volume[p] * J : P.volume[p];
+    const Mat<D> vs = volume * full(P.stress[p]);
     if (st.regular()) {  // (the same sums by rows: Stencil::forEachRowProjected)
-        const Vec<D> fb = withGravity ? Vec<D>(points_.mass(p) * gravity) : Vec<D>::Zero();
+        const Vec<D> fb = withGravity ? Vec<D>(P.mass(p) * gravity) : Vec<D>::Zero();
         st.forEachRowProjected(g, vs, [&](int I0, const double* N, const double* t) EMP_LAMBDA_INLINE {
-            double* f = g.force[I0].data();
+            double* f = a.force[I0].data();
             for (int e = 0; e < S * D; ++e) {
                 if constexpr (withGravity)
                     f[e] += N[e / D] * fb[e % D] - t[e];
@@ -731,10 +749,10 @@ EMP_ALWAYS_INLINE void Solver<D, K>::scatterInternalForce(int p, const St& st, c
         return;
     }
     if constexpr (withGravity) {
-        const Vec<D> fb = points_.mass(p) * gravity;
-        st.forEachProjected(g, vs, [&](int I, double N, const Vec<D>& vsGrad) { g.force[I] += N * fb - vsGrad; });
+        const Vec<D> fb = P.mass(p) * gravity;
+        st.forEachProjected(g, vs, [&](int I, double N, const Vec<D>& vsGrad) { a.force[I] += N * fb - vsGrad; });
     } else {
-        st.forEachProjected(g, vs, [&](int I, double, const Vec<D>& vsGrad) { g.force[I] -= vsGrad; });
+        st.forEachProjected(g, vs, [&](int I, double, const Vec<D>& vsGrad) { a.force[I] -= vsGrad; });
     }
 }
 
@@ -754,7 +772,8 @@ template <int D, class K> void Solver<D, K>::stressAndInternalForce(double dt, i
                 corotationalOfRun(&order[begin], &stencil_[begin], end - begin, dt, J);
             } else {
                 const auto strains = [&]() EMP_LAMBDA_INLINE {
-                    for (int k = begin; k < end; ++k) updateStrain(order[k], stencil_[k], dt);
+                    const PassArrays a = passArrays();
+                    for (int k = begin; k < end; ++k) updateStrain(a, a.order[k], a.stencil[k], dt);
                 };
                 if constexpr (D == 3)
                     withLaneIsa(strains);  // (Lane3's sums in the lanes' width)
@@ -763,9 +782,10 @@ template <int D, class K> void Solver<D, K>::stressAndInternalForce(double dt, i
                 lawOfRun(&order[begin], end - begin);
             }
             withLaneIsa([&]() EMP_LAMBDA_INLINE {  // (the rows' loops in the lanes' width)
+                const PassArrays a = passArrays();
                 for (int k = begin; k < end; ++k)
                     scatterInternalForce<decltype(withGravity)::value, decltype(corotational)::value>(
-                        order[k], stencil_[k], gravity, decltype(corotational)::value ? J[k - begin] : 0.0);
+                        a, a.order[k], a.stencil[k], gravity, decltype(corotational)::value ? J[k - begin] : 0.0);
             });
         }, between);
     };
@@ -992,11 +1012,13 @@ template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThre
         Vec<D> hi = Vec<D>::Constant(-std::numeric_limits<double>::infinity());
         double sum = 0, vmax2 = 0, kinetic = 0;
     };
-    auto& P = points_;
+    auto& P0 = points_;
     const auto& g = grid_;
-    const auto& order = schedule_.order();
+    using Arrays = PassArrays;  // (made in the loop's function: passArrays)
+    const auto arrays = [&]() EMP_LAMBDA_INLINE { return passArrays(); };
     // The new velocity and position of point p, and the checks (both transfers).
-    const auto finish = [&](int p, const Vec<D>& v, const Vec<D>& vg, Check& acc) EMP_LAMBDA_INLINE {
+    const auto finish = [&](const Arrays& A, int p, const Vec<D>& v, const Vec<D>& vg, Check& acc) EMP_LAMBDA_INLINE {
+        const auto& P = A.P;
         const Vec<D> x = P.x[p] + dt * vg;
         P.v[p] = v;
         P.x[p] = x;
@@ -1005,63 +1027,65 @@ template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThre
         acc.sum += v.sum() + x.sum() + full(P.stress[p]).sum();
         acc.vmax2 = std::max(acc.vmax2, v.squaredNorm());
     };
-    const auto flipInline = [&](int k, Check& acc) EMP_LAMBDA_INLINE {
-        const int p = order[k];
+    const auto flipInline = [&](const Arrays& A, int k, Check& acc) EMP_LAMBDA_INLINE {
+        const auto& P = A.P;
+        const int p = A.order[k];
         Vec<D> a = Vec<D>::Zero(), vg = Vec<D>::Zero();
-        const St& st = stencil_[k];
+        const St& st = A.stencil[k];
         if constexpr (D == 3) {  // (the same sums in 4-lane vectors: Lane3)
             Lane3 a3 = Lane3::zero(), v3 = Lane3::zero();
             if (st.regular())
                 st.forEachRow(g, [&](int I0, const double* N) EMP_LAMBDA_INLINE {
                     for (int i = 0; i < S; ++i) {
-                        a3 += N[i] * Lane3::load(g.force[I0 + i]);
-                        v3 += N[i] * Lane3::load(g.velocity[I0 + i]);
+                        a3 += N[i] * Lane3::load(A.force[I0 + i]);
+                        v3 += N[i] * Lane3::load(A.velocity[I0 + i]);
                     }
                 });
             else
                 st.forEach(g, [&](int I, double N, const Vec<D>&) {
-                    a3 += N * Lane3::load(g.force[I]);
-                    v3 += N * Lane3::load(g.velocity[I]);
+                    a3 += N * Lane3::load(A.force[I]);
+                    v3 += N * Lane3::load(A.velocity[I]);
                 });
             a = a3.vec();
             vg = v3.vec();
         } else if (st.regular()) {  // (the same sums, the nodes' addresses from each row's first)
             st.forEachRow(g, [&](int I0, const double* N) EMP_LAMBDA_INLINE {
                 for (int i = 0; i < S; ++i) {
-                    a += N[i] * g.force[I0 + i];
-                    vg += N[i] * g.velocity[I0 + i];
+                    a += N[i] * A.force[I0 + i];
+                    vg += N[i] * A.velocity[I0 + i];
                 }
             });
         } else {
             st.forEach(g, [&](int I, double N, const Vec<D>&) {
-                a += N * g.force[I];
-                vg += N * g.velocity[I];
+                a += N * A.force[I];
+                vg += N * A.velocity[I];
             });
         }
         const Vec<D> v = P.v[p] + dt * a;
         acc.kinetic += 0.5 * P.mass(p) * P.v[p].dot(v);
-        finish(p, v, vg, acc);
+        finish(A, p, v, vg, acc);
     };
     // 2D: the FLIP body left to GCC's inliner, as before session 21 (forcing it inline made no
     // measurable difference there). 3D forces it inline into withLaneIsa (Lane3's sums).
-    const auto flip = [&](int k, Check& acc) { flipInline(k, acc); };
+    const auto flip = [&](const Arrays& A, int k, Check& acc) { flipInline(A, k, acc); };
     // APIC: v_p = sum N v_I and B_p = sum N v_I (x_I - x_p)^T (Kinematics.hpp). Forced inline
     // into the loop.
-    const auto apic = [&](int k, Check& acc) EMP_LAMBDA_INLINE {
-        const int p = order[k];
-        const St& st = stencil_[k];
+    const auto apic = [&](const Arrays& A, int k, Check& acc) EMP_LAMBDA_INLINE {
+        const auto& P = A.P;
+        const int p = A.order[k];
+        const St& st = A.stencil[k];
         double u[D][S];  // offsets in cells (particleToGrid)
         st.cellOffsets(P.x[p], g, u);
         Vec<D> vg;
         Mat<D> Bu;  // B_p / h
-        st.affineSums(g, u, [&](int I) -> const Vec<D>& { return g.velocity[I]; }, vg, Bu);
+        st.affineSums(g, u, [&](int I) -> const Vec<D>& { return A.velocity[I]; }, vg, Bu);
         // m tr(C_old D C^T) / 2 at this position (C = B D^-1): tr(C_old B^T) = tr(Cu Bu^T) with
         // P2G's Cu = h C_old.
         double affine = 0;
         for (int d = 0; d < D; ++d) affine += P.affineVelocity[p].col(d).dot(Bu.col(d));
         acc.kinetic += 0.5 * P.mass(p) * (P.v[p].dot(vg) + affine);
         P.affineVelocity[p] = g.h * Bu;
-        finish(p, vg, vg, acc);
+        finish(A, p, vg, vg, acc);
     };
     const auto combine = [](Check& total, const Check& part) {
         total.lo = total.lo.cwiseMin(part.lo);
@@ -1075,7 +1099,8 @@ template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThre
         return [&](int begin, int end, Check& acc) {
             const auto block = [&]() EMP_LAMBDA_INLINE {
                 Check local = acc;  // (in registers: the caller's is in memory)
-                for (int k = begin; k < end; ++k) point(k, local);
+                const Arrays A = arrays();
+                for (int k = begin; k < end; ++k) point(A, k, local);
                 acc = local;
             };
             if constexpr (D == 3)
@@ -1094,7 +1119,7 @@ template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThre
         }
         return false;
     };
-    double nonFinite = !std::isfinite(c.sum), off = P.size() > 0 && (offGrid(c.lo) || offGrid(c.hi));
+    double nonFinite = !std::isfinite(c.sum), off = P0.size() > 0 && (offGrid(c.lo) || offGrid(c.hi));
     if (dist_) {
         // Every rank learns of a fault anywhere (and stops with it); the diagnostics are summed.
         std::vector<double> sum{c.kinetic, tractionWork_ - workAtStart_[0], gravityWork_ - workAtStart_[1]};
@@ -1125,8 +1150,8 @@ template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThre
     const auto id = [&](int p) { return dist_ ? points_.globalId[p] : p; };  // the single-process id
     if (nonFinite > 0) {
         int first = INT_MAX;
-        for (std::size_t p = 0; p < P.size() && first == INT_MAX; ++p)
-            if (!P.v[p].allFinite() || !P.x[p].allFinite() || !P.stress[p].allFinite()) first = static_cast<int>(p);
+        for (std::size_t p = 0; p < P0.size() && first == INT_MAX; ++p)
+            if (!P0.v[p].allFinite() || !P0.x[p].allFinite() || !P0.stress[p].allFinite()) first = static_cast<int>(p);
         if (dist_ && first == INT_MAX)
             throw SimulationError("EigenMPM: a non-finite value appeared in step " + std::to_string(steps_) +
                                   " on another rank (its message names the point)");
@@ -1138,17 +1163,17 @@ template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThre
             throw SimulationError(s.str());
         }
     }
-    if (dist_ && off > 0 && !(P.size() > 0 && (offGrid(c.lo) || offGrid(c.hi))))
+    if (dist_ && off > 0 && !(P0.size() > 0 && (offGrid(c.lo) || offGrid(c.hi))))
         throw SimulationError("EigenMPM: a point left the grid in step " + std::to_string(steps_) +
                               " on another rank (its message names the point)");
     if (off > 0) {  // (no point: the box is empty)
         int first = 0;
-        while (!offGrid(P.x[first])) ++first;  // the box's corner is one point's coordinate
+        while (!offGrid(P0.x[first])) ++first;  // the box's corner is one point's coordinate
         Vec<D> hiCorner;
         for (int d = 0; d < D; ++d) hiCorner[d] = g.origin[d] + (g.n[d] - 1) * g.h;
         std::ostringstream s;
         s << "EigenMPM: point id " << id(first) << " left the grid in step " << steps_ << " (t = "
-          << time_ << " s): position " << str<D>(P.x[first]) << ", grid nodes span "
+          << time_ << " s): position " << str<D>(P0.x[first]) << ", grid nodes span "
           << str<D>(g.origin) << " to " << str<D>(hiCorner)
           << "; give a larger domain (the point is kept, the run stops)";
         throw SimulationError(s.str());

@@ -260,10 +260,30 @@ private:
     static constexpr int stressRun = 16;
     /// P2G's runs of points whose stencils are computed together (Stencil::computeRun).
     static constexpr int stencilRun = 32;
-    /// Eq 27's velocity gradient at point p.
+    /// What the passes' loops over points read and write (the points, the binned order, the
+    /// stencils, the nodal arrays), as plain pointers (PointsView). Made in the function that runs
+    /// a loop, they stay in registers there; read through the containers, each is loaded again
+    /// after every store of an SSE or AVX vector (which may alias any object).
+    struct PassArrays {
+        PointsView<D> P;
+        const int* order;
+        St* stencil;
+        double* mass;
+        Vec<D>* momentum;
+        Vec<D>* velocity;
+        Vec<D>* force;
+    };
+    PassArrays passArrays()
+    {
+        return {points_.view(), schedule_.order().data(), stencil_.data(), grid_.mass.data(),
+                grid_.momentum.data(), grid_.velocity.data(), grid_.force.data()};
+    }
+    /// Eq 27's velocity gradient at point p, from the nodal masses and velocities of A (a
+    /// PassArrays, or any A with A.mass, A.velocity and the points' velocities A.P.v).
+    template <class A> Mat<D> velocityGradient(const A& a, int p, const St& st) const;
     Mat<D> velocityGradient(int p, const St& st) const;
     /// The strain increment of point p (small strain).
-    void updateStrain(int p, const St& st, double dt);
+    void updateStrain(const PassArrays& a, int p, const St& st, double dt);
     /// The law at point p: stress, psi+, psi-, history.
     void lawAt(int p);
     /// The law at the n <= stressRun points ids (lawAt for each, or lawOfRun2 / lawOfRun3).
@@ -298,7 +318,7 @@ private:
     /// f_I += N_I m_p b - V sigma_p grad N_I; V is the current volume J V_p with the
     /// co-rotational update (J: det F from corotationalOfRun), else V_p (J unused).
     template <bool withGravity, bool corotational>
-    void scatterInternalForce(int p, const St& st, const Vec<D>& gravity, double J);
+    void scatterInternalForce(const PassArrays& a, int p, const St& st, const Vec<D>& gravity, double J);
     /// The stencil of one point computed on its own (serial stages: erosion, tractions).
     St stencilOf(int p);
     /// Maps point p's support onto the twins of this step (across the cracks, or its body's)
