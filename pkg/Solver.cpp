@@ -775,10 +775,7 @@ template <int D, class K> void Solver<D, K>::stressAndInternalForce(double dt, i
                     const PassArrays a = passArrays();
                     for (int k = begin; k < end; ++k) updateStrain(a, a.order[k], a.stencil[k], dt);
                 };
-                if constexpr (D == 3)
-                    withLaneIsa(strains);  // (Lane3's sums in the lanes' width)
-                else
-                    strains();
+                withLaneIsa(strains);  // (the gradients' 4-lane sums in the lanes' width)
                 lawOfRun(&order[begin], end - begin);
             }
             withLaneIsa([&]() EMP_LAMBDA_INLINE {  // (the rows' loops in the lanes' width)

@@ -483,7 +483,31 @@ template <int D, class K> struct Stencil {
     {
         return withNodeOf(g, [&](auto nodeOf) EMP_LAMBDA_INLINE {
             Mat<D> L;
-            if constexpr (D == 2) {
+            if constexpr (D == 2 && std::is_lvalue_reference_v<decltype(v(0))>) {
+                // The sums below in one 4-lane vector (one AVX register inside withLaneIsa): lanes
+                // 0-1 carry a and c0, lanes 2-3 b and c1, each lane the same operations in the
+                // same order, so the same values. Each node's velocity is read once into both
+                // halves.
+                typedef double V2 __attribute__((vector_size(2 * sizeof(double))));
+                typedef double V4 __attribute__((vector_size(4 * sizeof(double))));
+                // (x, x, y, y) from two halves (GCC built such vectors in memory otherwise: Lane3::of)
+#define EMP_PAIR(x, y) V4(__builtin_shufflevector(V2{x, x}, V2{y, y}, 0, 1, 2, 3))
+                V4 q[S];
+                for (int i = 0; i < S; ++i) q[i] = EMP_PAIR(dw[0][i], w[0][i]);
+                V4 c{0.0, 0.0, 0.0, 0.0};
+                for (int j = 0; j < S; ++j) {
+                    V4 ab{0.0, 0.0, 0.0, 0.0};
+                    for (int i = 0; i < S; ++i) {
+                        V2 vi;
+                        __builtin_memcpy(&vi, v(nodeOf(i, j, 0)).data(), sizeof(V2));
+                        ab += q[i] * V4(__builtin_shufflevector(vi, vi, 0, 1, 0, 1));
+                    }
+                    c += EMP_PAIR(w[1][j], dw[1][j]) * ab;
+                }
+#undef EMP_PAIR
+                L.col(0) = g.invh * Vec<2>(c[0], c[1]);
+                L.col(1) = g.invh * Vec<2>(c[2], c[3]);
+            } else if constexpr (D == 2) {
                 Vec<2> a, b;  // the sums over x of one row of the support (rowSums)
                 Vec<2> c0 = Vec<2>::Zero(), c1 = Vec<2>::Zero();
                 for (int j = 0; j < S; ++j) {

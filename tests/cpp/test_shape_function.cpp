@@ -621,9 +621,9 @@ template <int D, class K> void checkRowForms()
             });
             tabled.forEach(g, [&](int I, double N, const Vec<D>&) { a2 += N * field0[I]; });
             ASSERT_EQ(std::memcmp(a1.data(), a2.data(), sizeof a1), 0) << emp::name(w);
-            // In 3D the sums that read the nodal arrays run in 4-lane vectors (emp::Lane3; a
-            // callable that returns a value takes Eigen's path, as above): the same bits, in the
-            // lanes' width, with either node indexing.
+            // The sums that read the nodal arrays run in 4-lane vectors (3D: emp::Lane3; 2D's
+            // gradient: both of a row's sums in one vector; a callable that returns a value takes
+            // Eigen's path, as above): the same bits, in the lanes' width, with either node indexing.
             std::copy(field0.begin(), field0.end(), g.velocity.begin());
             const auto ref = [&](int I) -> const Vec<D>& { return g.velocity[I]; };
             for (const St* s : {&st, &tabled}) {
