@@ -1002,12 +1002,14 @@ template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThre
     // FLIP velocity update (Eq 30) and position from nodal momentum (Eq 31). Each point writes
     // only itself; the loop runs in the binned order to stream the stencils. The checks of the
     // new state cost no branch per point: the loop keeps the bounding box of the positions and
-    // a sum of every value checked (a non-finite value makes it non-finite); only when either
-    // is out of bounds does a second, serial scan find the first point at fault.
+    // a sum of every value checked (a non-finite value makes it non-finite), a D-vector of
+    // sums without a sum across its components per point (only its finiteness is read); only
+    // when either is out of bounds does a second, serial scan find the first point at fault.
     struct Check {
         Vec<D> lo = Vec<D>::Constant(std::numeric_limits<double>::infinity());
         Vec<D> hi = Vec<D>::Constant(-std::numeric_limits<double>::infinity());
-        double sum = 0, vmax2 = 0, kinetic = 0;
+        Vec<D> sum = Vec<D>::Zero();
+        double vmax2 = 0, kinetic = 0;
     };
     auto& P0 = points_;
     const auto& g = grid_;
@@ -1021,7 +1023,11 @@ template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThre
         P.x[p] = x;
         acc.lo = acc.lo.cwiseMin(x);
         acc.hi = acc.hi.cwiseMax(x);
-        acc.sum += v.sum() + x.sum() + full(P.stress[p]).sum();
+        const auto& sigma = P.stress[p];
+        if constexpr (D == 2)  // (the stress's components, xx xy yy, as two vectors)
+            acc.sum += (v + x) + (Vec<2>(sigma.xx, sigma.xy) + Vec<2>(sigma.xy, sigma.yy));
+        else
+            acc.sum += (v + x) + (sigma.col(0) + sigma.col(1) + sigma.col(2));
         acc.vmax2 = std::max(acc.vmax2, v.squaredNorm());
     };
     const auto flipInline = [&](const Arrays& A, int k, Check& acc) EMP_LAMBDA_INLINE {
@@ -1116,7 +1122,7 @@ template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThre
         }
         return false;
     };
-    double nonFinite = !std::isfinite(c.sum), off = P0.size() > 0 && (offGrid(c.lo) || offGrid(c.hi));
+    double nonFinite = !c.sum.allFinite(), off = P0.size() > 0 && (offGrid(c.lo) || offGrid(c.hi));
     if (dist_) {
         // Every rank learns of a fault anywhere (and stops with it); the diagnostics are summed.
         std::vector<double> sum{c.kinetic, tractionWork_ - workAtStart_[0], gravityWork_ - workAtStart_[1]};
