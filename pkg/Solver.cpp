@@ -1068,9 +1068,6 @@ template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThre
         acc.kinetic += 0.5 * P.mass(p) * P.v[p].dot(v);
         finish(A, p, v, vg, acc);
     };
-    // 2D: the FLIP body left to GCC's inliner, as before session 21 (forcing it inline made no
-    // measurable difference there). 3D forces it inline into withLaneIsa (Lane3's sums).
-    const auto flip = [&](const Arrays& A, int k, Check& acc) { flipInline(A, k, acc); };
     // APIC: v_p = sum N v_I and B_p = sum N v_I (x_I - x_p)^T (Kinematics.hpp). Forced inline
     // into the loop.
     const auto apic = [&](const Arrays& A, int k, Check& acc) EMP_LAMBDA_INLINE {
@@ -1106,15 +1103,11 @@ template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThre
                 for (int k = begin; k < end; ++k) point(A, k, local);
                 acc = local;
             };
-            if constexpr (D == 3)
-                withLaneIsa(block);
-            else
-                block();
+            withLaneIsa(block);
         };
     };
     Check c = settings_.transfer == Transfer::apic ? schedule_.gather(nThreads, Check{}, inLanes(apic), combine)
-              : D == 3 ? schedule_.gather(nThreads, Check{}, inLanes(flipInline), combine)
-                       : schedule_.gather(nThreads, Check{}, inLanes(flip), combine);
+                                                   : schedule_.gather(nThreads, Check{}, inLanes(flipInline), combine);
     const auto offGrid = [&](const Vec<D>& x) {
         for (int d = 0; d < D; ++d) {
             const int b = K::base((x[d] - g.origin[d]) * g.invh);  // monotone in x
