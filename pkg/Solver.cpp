@@ -547,14 +547,17 @@ EMP_ALWAYS_INLINE void Solver<D, K>::corotationalOfRun2(const int* ids, const St
     alignas(64) double l[4][stressRun], f[4][stressRun], c[stressRun], lambda[stressRun], mu[stressRun];
     alignas(64) double e[4][stressRun], sigma[4][stressRun], psiPlus[stressRun], psiMinus[stressRun];
     alignas(64) double ok[stressRun];
-    for (int i = 0; i < n; ++i) {
-        const int p = ids[i];
-        const Mat<D> L = velocityGradient(p, st[i]);
-        const Mat<D>& F = P.deformationGradient[p];
-        l[0][i] = L(0, 0), l[1][i] = L(0, 1), l[2][i] = L(1, 0), l[3][i] = L(1, 1);
-        f[0][i] = F(0, 0), f[1][i] = F(0, 1), f[2][i] = F(1, 0), f[3][i] = F(1, 1);
-        lawInputs(p, c[i], lambda[i], mu[i]);
-    }
+    withLaneIsa([&]() EMP_LAMBDA_INLINE {  // (the gradients' 4-lane sums in the lanes' width)
+        const PassArrays a = passArrays();
+        for (int i = 0; i < n; ++i) {
+            const int p = ids[i];
+            const Mat<D> L = velocityGradient(a, p, st[i]);
+            const Mat<D>& F = a.P.deformationGradient[p];
+            l[0][i] = L(0, 0), l[1][i] = L(0, 1), l[2][i] = L(1, 0), l[3][i] = L(1, 1);
+            f[0][i] = F(0, 0), f[1][i] = F(0, 1), f[2][i] = F(1, 0), f[3][i] = F(1, 1);
+            lawInputs(p, c[i], lambda[i], mu[i]);
+        }
+    });
     forLanes(n, [&](int i) EMP_LAMBDA_INLINE {
         const Plain2 F = deformationUpdate2(dt, {l[0][i], l[1][i], l[2][i], l[3][i]}, {f[0][i], f[1][i], f[2][i], f[3][i]});
         f[0][i] = F.xx, f[1][i] = F.xy, f[2][i] = F.yx, f[3][i] = F.yy;
@@ -605,9 +608,10 @@ EMP_NOINLINE void Solver<D, K>::corotationalOfRun3(const int* ids, const St* st,
         const auto store = [](double (*a)[R], int i, const Plain3& m) EMP_LAMBDA_INLINE {
             forEntries([&](auto k) EMP_LAMBDA_INLINE { a[k][i] = m.a[k / 3][k % 3]; });
         };
+        const PassArrays a = passArrays();
         for (int i = 0; i < n; ++i) {
-            const Mat<3> L = velocityGradient(ids[i], st[i]);
-            const Mat<3>& F = P.deformationGradient[ids[i]];
+            const Mat<3> L = velocityGradient(a, ids[i], st[i]);
+            const Mat<3>& F = a.P.deformationGradient[ids[i]];
             for (int k = 0; k < 9; ++k) f[k][i] = F(k / 3, k % 3), r[k][i] = L(k / 3, k % 3);
         }
         // F <- (I - dt L)^-1 F; the Newton iteration starts from F (state 1: iterating, 0: refused).
