@@ -178,8 +178,6 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
     // here once per point and kept for the stress/force pass and G2P.
     auto& g = grid_;
     const int mapping = mapping_;
-    using Arrays = PassArrays;  // (made in the loop's function: passArrays)
-    const auto arrays = [&]() EMP_LAMBDA_INLINE { return passArrays(); };
     const HalfWidth half(lp_);  // (its reciprocal once, not per point)
     // One instantiation per transfer, so that FLIP's is the paper's loop alone (the inliner
     // then treats it as before the APIC option existed: bench_block checksums and speed). Both
@@ -187,7 +185,7 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
     // APIC 9 % more instructions.
     // `frame` is the point's APIC frame when its run computed it (inRuns), or null.
     const auto body = [&](auto apic, auto computed) {
-        return [&](const Arrays& A, int k, const typename St::AffineFrame* frame) EMP_LAMBDA_INLINE {
+        return [&](const PassArrays& A, int k, const typename St::AffineFrame* frame) EMP_LAMBDA_INLINE {
             const auto& P = A.P;
             const int p = A.order[k];
             St& st = A.stencil[k];
@@ -256,7 +254,7 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
             else
                 St::template computeRun<stencilRun>(end - begin, x, g, half, &stencil_[begin]);
             withLaneIsa([&]() EMP_LAMBDA_INLINE {  // (the rows' loops in the lanes' width)
-                const Arrays A = arrays();
+                const PassArrays A = passArrays();
                 for (int k = begin; k < end; ++k) point(A, k, decltype(apic)::value ? &frames[k - begin] : nullptr);
             });
         };
@@ -265,7 +263,7 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
         if constexpr (K::laneEvaluation)
             if (laneIsa() != LaneIsa::baseline) return schedule_.scatterRuns(nThreads, stencilRun, inRuns(apic), between);
         const auto point = body(apic, std::false_type{});
-        schedule_.scatter(nThreads, [&](int k) EMP_LAMBDA_INLINE { point(arrays(), k, nullptr); }, between);
+        schedule_.scatter(nThreads, [&](int k) EMP_LAMBDA_INLINE { point(passArrays(), k, nullptr); }, between);
     };
     if (settings_.transfer == Transfer::apic)
         scatter(std::true_type{});
@@ -1017,10 +1015,8 @@ template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThre
     };
     auto& P0 = points_;
     const auto& g = grid_;
-    using Arrays = PassArrays;  // (made in the loop's function: passArrays)
-    const auto arrays = [&]() EMP_LAMBDA_INLINE { return passArrays(); };
     // The new velocity and position of point p, and the checks (both transfers).
-    const auto finish = [&](const Arrays& A, int p, const Vec<D>& v, const Vec<D>& vg, Check& acc) EMP_LAMBDA_INLINE {
+    const auto finish = [&](const PassArrays& A, int p, const Vec<D>& v, const Vec<D>& vg, Check& acc) EMP_LAMBDA_INLINE {
         const auto& P = A.P;
         const Vec<D> x = P.x[p] + dt * vg;
         P.v[p] = v;
@@ -1034,7 +1030,7 @@ template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThre
             acc.sum += (v + x) + (sigma.col(0) + sigma.col(1) + sigma.col(2));
         acc.vmax2 = std::max(acc.vmax2, v.squaredNorm());
     };
-    const auto flipInline = [&](const Arrays& A, int k, Check& acc) EMP_LAMBDA_INLINE {
+    const auto flip = [&](const PassArrays& A, int k, Check& acc) EMP_LAMBDA_INLINE {
         const auto& P = A.P;
         const int p = A.order[k];
         Vec<D> a = Vec<D>::Zero(), vg = Vec<D>::Zero();
@@ -1074,7 +1070,7 @@ template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThre
     };
     // APIC: v_p = sum N v_I and B_p = sum N v_I (x_I - x_p)^T (Kinematics.hpp). Forced inline
     // into the loop.
-    const auto apic = [&](const Arrays& A, int k, Check& acc) EMP_LAMBDA_INLINE {
+    const auto apic = [&](const PassArrays& A, int k, Check& acc) EMP_LAMBDA_INLINE {
         const auto& P = A.P;
         const int p = A.order[k];
         const St& st = A.stencil[k];
@@ -1098,12 +1094,12 @@ template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThre
         total.vmax2 = std::max(total.vmax2, part.vmax2);
         total.kinetic += part.kinetic;
     };
-    // In 3D each block of points inside withLaneIsa (Lane3's sums in the lanes' width).
+    // Each block of points inside withLaneIsa (the sums in the lanes' width; 3D: Lane3).
     const auto inLanes = [&](const auto& point) {
         return [&](int begin, int end, Check& acc) {
             const auto block = [&]() EMP_LAMBDA_INLINE {
                 Check local = acc;  // (in registers: the caller's is in memory)
-                const Arrays A = arrays();
+                const PassArrays A = passArrays();
                 for (int k = begin; k < end; ++k) point(A, k, local);
                 acc = local;
             };
@@ -1111,7 +1107,7 @@ template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThre
         };
     };
     Check c = settings_.transfer == Transfer::apic ? schedule_.gather(nThreads, Check{}, inLanes(apic), combine)
-                                                   : schedule_.gather(nThreads, Check{}, inLanes(flipInline), combine);
+                                                   : schedule_.gather(nThreads, Check{}, inLanes(flip), combine);
     const auto offGrid = [&](const Vec<D>& x) {
         for (int d = 0; d < D; ++d) {
             const int b = K::base((x[d] - g.origin[d]) * g.invh);  // monotone in x
