@@ -13,8 +13,8 @@ namespace emp {
 /// The points' arrays as plain pointers, under MaterialPoints' names (x[p], v[p], mass(p), ...),
 /// for a pass's loop over points. Made in the function that runs the loop, its pointers stay in
 /// registers; read through the vectors, they are loaded again after every store of an SSE or AVX
-/// vector (the intrinsics' vector types may alias any object, a vector's own pointers included):
-/// about 20 loads per point in G2P.
+/// vector (the intrinsics' vector types may alias any object, a vector's own pointers included).
+/// With it, 2D G2P executes 11 instructions per point fewer (doc/performance.md, "Session 30").
 template <int D> struct PointsView {
     Vec<D>* x;
     Vec<D>* v;
