@@ -620,6 +620,56 @@ template <class Sv> struct Bind {
         }
         return a;
     }
+    /// One record of EigenErosion's crack diagnostics in a run of one process (EigenErosion.record,
+    /// py/eigenmpm/fracture.py): the numbers its _crack, _frontOf and _tipsOf make with a dozen numpy
+    /// steps, here in one call (a record follows a step, when the interpreter runs cold). The eroded
+    /// points of `erosion`'s events, at their positions now (coordinate `axis` set to 0 when axis >= 0:
+    /// throughAxis), form the main crack grown from `origin` (crackfront::mainCrack, cells of size R).
+    /// Returns (front, xr, rr, farther): the largest distance of a main-crack point from the origin
+    /// (0 before the first event); the rows of the main-crack points eroded at or after `since`,
+    /// their squared distances from the origin (numpy's row sums: ((d0^2 + d1^2) + d2^2)), and
+    /// whether a main-crack point within squared distance R2 of each lies farther from the origin
+    /// (crackfront::fartherWithin). The same operations on the same numbers as the numpy steps
+    /// (test_erosion.py compares the records of both bit for bit).
+    static bp::tuple crackRecord(const Sv& s, const EigenErosion<D>& erosion, bp::object origin, int axis, double since,
+                                 double R, double R2)
+    {
+        require(axis >= -1 && axis < 3, "axis", axis, "-1 (none), 0, 1 or 2");
+        require(std::isfinite(R) && R > 0 && R2 >= 0 && R2 <= R * R * (1 + 1e-12), "R2 (squared radius, m2)", R2,
+                "0 <= R2 <= R^2");
+        const auto& ev = erosion.events();
+        const long n = static_cast<long>(ev.size()), points = static_cast<long>(s.points().size());
+        if (n == 0) return bp::make_tuple(0.0, zeros(0, 3), zeros(0, 0), BindCrackFront::mask({}));
+        std::vector<double> x(3 * n, 0.0);
+        for (long k = 0; k < n; ++k) {
+            const long p = ev[k].point;
+            if (p < 0 || p >= points) require(false, "eroded point index", p, "0 <= index < " + std::to_string(points));
+            for (int d = 0; d < D; ++d) x[3 * k + d] = s.points().x[p][d];
+            if (axis >= 0) x[3 * k + axis] = 0.0;
+        }
+        const Eigen::Vector3d o = toVec3(origin, "origin");
+        std::vector<double> squared;
+        const std::vector<char> main = crackfront::mainCrack(x.data(), n, o.data(), R, &squared);
+        std::vector<double> xm, r, xr, rr;
+        double largest = -std::numeric_limits<double>::infinity();
+        for (long k = 0; k < n; ++k) {
+            if (!main[k]) continue;
+            xm.insert(xm.end(), &x[3 * k], &x[3 * k] + 3);
+            r.push_back(squared[k]);
+            largest = std::max(largest, squared[k]);
+            if (ev[k].time >= since) {
+                xr.insert(xr.end(), &x[3 * k], &x[3 * k] + 3);
+                const double d0 = x[3 * k] - o[0], d1 = x[3 * k + 1] - o[1], d2 = x[3 * k + 2] - o[2];
+                rr.push_back((d0 * d0 + d1 * d1) + d2 * d2);
+            }
+        }
+        const long nm = static_cast<long>(r.size()), nr = static_cast<long>(rr.size());
+        const std::vector<char> farther = crackfront::fartherWithin(xm.data(), r.data(), nm, xr.data(), rr.data(), nr, R, R2);
+        np::ndarray axr = zeros(nr, 3), arr = zeros(nr, 0);
+        std::copy(xr.begin(), xr.end(), reinterpret_cast<double*>(axr.get_data()));
+        std::copy(rr.begin(), rr.end(), reinterpret_cast<double*>(arr.get_data()));
+        return bp::make_tuple(std::sqrt(largest), axr, arr, BindCrackFront::mask(farther));
+    }
     static np::ndarray velocities(const Sv& s) { return vectors(s, [&](long p) { return s.points().v[p]; }); }
 
     /// 3x3 tensors; in 2D the out-of-plane component follows the material's plane condition:
@@ -883,6 +933,8 @@ template <class Sv> struct Bind {
             .def("elasticEnergy", &Sv::elasticEnergy)
             .def("positions", &positions)
             .def("positionsAt", &positionsAt, (bp::arg("indices")))
+            .def("crackRecord", &crackRecord, (bp::arg("erosion"), bp::arg("origin"), bp::arg("axis"), bp::arg("since"),
+                                               bp::arg("R"), bp::arg("R2")))
             .def("velocities", &velocities)
             .def("setVelocities", &setVelocities)
             .def("stress", &stress)

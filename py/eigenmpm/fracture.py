@@ -257,7 +257,13 @@ class EigenErosion(PyRunner):
         R2 = R ** 2
         xr = x[recent]
         rr = np.sum((xr - origin) ** 2, axis=1)
-        farther = _eigenmpm.crackFartherWithin(xm, r, xr, rr, R, R2)
+        return self._mergedTips(xr, rr, _eigenmpm.crackFartherWithin(xm, r, xr, rr, R, R2), R2)
+
+    @staticmethod
+    def _mergedTips(xr, rr, farther, R2):
+        """The tips among the recent points xr (squared distances rr from the origin): those
+        without a farther neighbour, from the farthest, each merged into a farther tip within
+        squared distance R2 of it."""
         order = np.argsort(-rr)
         tips = []
         for k in order[~farther[order]]:
@@ -330,9 +336,33 @@ class EigenErosion(PyRunner):
 
     def record(self, mpm=None):
         mpm = mpm or self._mpm
-        crack = self._crack(mpm)
-        self.history.append((mpm.solver.time, self.dissipatedEnergy(), self.erodedCount(),
-                             self._frontOf(crack), [t.tolist() for t in self._tipsOf(mpm, crack)]))
+        solver = mpm.solver
+        if self.core and solver.ranks == 1:
+            front, tips = self._recordOfOneProcess(mpm, solver)
+        else:  # (under mpiexec the eroded points' positions travel between the ranks: _crack)
+            crack = self._crack(mpm)
+            front, tips = self._frontOf(crack), self._tipsOf(mpm, crack)
+        self.history.append((solver.time, self.dissipatedEnergy(), self.erodedCount(), front,
+                             [t.tolist() for t in tips]))
+
+    def _recordOfOneProcess(self, mpm, solver):
+        """record()'s front and tips in one process: _crack's, _frontOf's and _tipsOf's numbers
+        from one C++ call (solver.crackRecord, the same operations on the same numbers) and the
+        tips merged here. A record follows a step, when the interpreter runs cold: the numpy
+        steps took about 260 us per record in the branching plate (doc/performance.md,
+        "Session 31"). test_erosion.py compares both ways bit for bit."""
+        if self._origin is None:
+            ids = self.core.eventPoints()
+            if not len(ids):
+                return 0.0, []
+            self._origin = self._inPlane(solver.positionsAt(ids[:1]))[0].copy()
+        R = 6.0 * self.core.kappa
+        R2 = R ** 2
+        window = self.tipWindow if self.tipWindow else 50 * O.dt
+        axis = -1 if self.throughAxis is None else "xyz".index(self.throughAxis)
+        front, xr, rr, farther = solver.crackRecord(self.core, self._inPlane(self._origin), axis,
+                                                    solver.time - window, R, R2)
+        return front, (self._mergedTips(xr, rr, farther, R2) if len(rr) else [])
 
     def tipSpeed(self, window=None):
         """Crack tip speed over the recorded history, as (times, speeds in m/s): the rate of

@@ -555,3 +555,47 @@ def test_crack_searches_far_from_the_rest_are_those_of_their_plain_forms(seed):
     got = _eigenmpm.crackFartherWithin(x, rall, x[pick], rall[pick], R, R * R)
     plain = [np.any((rall > rall[k]) & (np.sum((x - x[k]) ** 2, axis=1) <= R * R)) for k in pick]
     assert got.tolist() == plain and any(plain) and not all(plain)
+
+
+def _notched_3d_plate():
+    """notched_plate through a thickness of three cells (3D)."""
+    h = 0.004
+    plate = pack.inAlignedBox((0, 0, 0), (0.1, 0.04, 0.012)) - pack.inAlignedBox((-1, 0.019, -1), (0.03, 0.021, 1))
+    mpm = em.MpmEngine(dim=3, h=h)
+    mpm.fill(plate, em.ElasticMaterial(E=72e9, nu=0.22, rho=2440))
+    mpm.velocityBC(points=pack.inAlignedBox((-1, 0.038, -1), (1, 1, 1)), components="y", velocity=(0, 4.0, 0))
+    mpm.velocityBC(points=pack.inAlignedBox((-1, -1, -1), (1, 0.002, 1)), components="y", velocity=(0, -4.0, 0))
+    er = em.EigenErosion(engine=mpm, Gc=135.0, alpha=2.0, kappaOverH=1.1, iterPeriod=1, throughAxis="z",
+                         tipWindow=5 * 0.5 * mpm.criticalTimeStep(), origin=(0.03, 0.02, 0.006))
+    O.engines = [mpm, er]
+    O.dt = 0.5 * mpm.criticalTimeStep()
+    return mpm, er
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_a_record_of_one_process_is_that_of_the_numpy_steps(dim):
+    """record() in one process takes its front and tips from one C++ call (solver.crackRecord);
+    under mpiexec it takes them from the numpy steps of _crack, _frontOf and _tipsOf. Both give
+    the same numbers, bit for bit, at every step of a growing crack: from its first eroded point
+    (the origin taken from it, 2D) or a given origin, with one tip or several (a short tip window
+    in 3D, the front through the thickness: throughAxis)."""
+    O.reset()
+    if dim == 2:
+        mpm, er = notched_plate(1)
+        er.tipWindow = 3 * O.dt
+        steps = 200
+    else:
+        mpm, er = _notched_3d_plate()
+        steps = 160
+    compared, tipsSeen = 0, 0
+    for _ in range(steps):
+        O.run(1, True)
+        fast = er._recordOfOneProcess(mpm, mpm.solver)
+        crack = er._crack(mpm)
+        slow = er._frontOf(crack), er._tipsOf(mpm, crack)
+        assert fast[0] == slow[0] and type(fast[0]) is float
+        assert len(fast[1]) == len(slow[1]) and all(np.array_equal(a, b) for a, b in zip(fast[1], slow[1]))
+        compared += crack is not None
+        tipsSeen = max(tipsSeen, len(slow[1]))
+    assert compared > 20 and tipsSeen >= 2, (compared, tipsSeen)
+    assert er.history[-1][3] == slow[0] and er.history[-1][4] == [t.tolist() for t in slow[1]]
