@@ -28,6 +28,7 @@
 #include <vector>
 
 #include "Errors.hpp"
+#include "Lanes.hpp"
 #include "Grid.hpp"
 
 namespace emp {
@@ -266,21 +267,55 @@ private:
             // (The bounds are taken first: in the condition, chunkBegin's 64-bit division ran at
             // every point, the stores through count possibly changing what it reads.)
             const int begin = chunkBegin(c), end = chunkBegin(c + 1);
-            for (int p = begin; p < end; ++p) {
-                int b = 0, column = 0;
-                for (int d = 0; d < D; ++d) {
-                    b = K::base((x[p][d] - g.origin[d]) * g.invh);
-                    if (!(b >= 0 && b <= g.n[d] - K::S)) {
-                        firstOffGrid = std::min(firstOffGrid, p);
-                        b = 0;
-                        break;
+            // The keys first, in one loop without a branch per point that GCC vectorises (in the
+            // lanes' width, pkg/Lanes.hpp); a point off the grid gets key -1, and only then does a
+            // second loop find the chunk's first such point. (Point by point with a break at the
+            // first axis off the grid, this took about 4 % of the 2D step.)
+            static_assert(sizeof(Vec<D>) == D * sizeof(double), "positions as rows of D numbers");
+            int* const keys = keyOf_.data();
+            int anyOff = 0;
+            withLaneIsa([&]() EMP_LAMBDA_INLINE {
+                // (All of it local to the loop's copy: read through the closure, GCC would not
+                // vectorise the loop for fear that the keys' stores change it.)
+                const double* const xs = np ? x[0].data() : nullptr;
+                int* const out = keys;
+                double origin[D];
+                int last[D];
+                for (int d = 0; d < D; ++d) origin[d] = g.origin[d], last[d] = g.n[d] - K::S;
+                const double invh = g.invh;
+                const int cells = columnCells_, from = begin, to = end;
+                int any = 0;
+                for (int p = from; p < to; ++p) {
+                    int off = 0, b = 0, column = 0;
+                    for (int d = 0; d < D; ++d) {
+                        b = K::base((xs[D * p + d] - origin[d]) * invh);
+                        off |= (b < 0) | (b > last[d]);
+                        if (columns && d == 0) column = b / cells;
                     }
-                    if (columns && d == 0) column = b / columnCells_;
+                    // b is now the base node along the last axis (the key's strip).
+                    out[p] = off ? -1 : columns ? b / stripWidth * nc + column : b / stripWidth;
+                    any |= off;
                 }
-                // b is now the base node along the last axis (the key's strip).
-                keyOf_[p] = columns ? b / stripWidth * nc + column : b / stripWidth;
-                ++count[keyOf_[p]];
+                anyOff = any;
+            });
+            if (anyOff) {
+                firstOffGrid = std::min(firstOffGrid, static_cast<int>(std::find(keys + begin, keys + end, -1) - keys));
+                continue;
             }
+            // Points in id order mostly come in runs of one key (a row of points lies in one
+            // strip): each run is counted in a register and added at its end. (++count[key]
+            // point by point waited on the store of the same counter by the point before.)
+            int runKey = -1, run = 0;
+            for (int p = begin; p < end; ++p) {
+                const int key = keys[p];
+                if (key != runKey) {
+                    if (run) count[runKey] += run;
+                    runKey = key;
+                    run = 0;
+                }
+                ++run;
+            }
+            if (run) count[runKey] += run;
         }
         if (firstOffGrid != INT_MAX) return firstOffGrid;
         // Key starts, and each chunk's first slot in each key.
@@ -305,7 +340,18 @@ private:
         for (int c = 0; c < nChunks; ++c) {
             int* fill = &chunkFill_[static_cast<std::size_t>(c) * numKeys];
             const int begin = chunkBegin(c), end = chunkBegin(c + 1);
-            for (int p = begin; p < end; ++p) order_[fill[keyOf_[p]]++] = p;
+            // (A run of one key fills from a register, as the counts above.)
+            int runKey = -1, next = 0;
+            for (int p = begin; p < end; ++p) {
+                const int key = keyOf_[p];
+                if (key != runKey) {
+                    if (runKey >= 0) fill[runKey] = next;
+                    runKey = key;
+                    next = fill[key];
+                }
+                order_[next++] = p;
+            }
+            if (runKey >= 0) fill[runKey] = next;
         }
         splitStrips(nThreads);
         return -1;
