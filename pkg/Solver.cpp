@@ -396,12 +396,21 @@ EMP_ALWAYS_INLINE bool Solver<D, K>::withSharedPointwiseLaw(const int* ids, int 
     return done;
 }
 
-template <int D, class K> EMP_ALWAYS_INLINE void Solver<D, K>::lawInputs(int p, double& c, double& lambda, double& mu) const
+template <int D, class K>
+EMP_ALWAYS_INLINE void Solver<D, K>::lawInputs(const int* ids, int n, double* c, double* lambda, double* mu) const
 {
-    c = points_.damage[p];
-    const ElasticMaterial& m = materials_[points_.material[p]];
-    lambda = m.lambda;
-    mu = m.mu;
+    const auto& P = points_;
+    for (int i = 0; i < n; ++i) c[i] = P.damage[ids[i]];
+    if (materials_.size() == 1) {  // (the usual scene: no material to look up per point)
+        const double l = materials_[0].lambda, m = materials_[0].mu;
+        for (int i = 0; i < n; ++i) lambda[i] = l, mu[i] = m;
+        return;
+    }
+    for (int i = 0; i < n; ++i) {
+        const ElasticMaterial& m = materials_[P.material[ids[i]]];
+        lambda[i] = m.lambda;
+        mu[i] = m.mu;
+    }
 }
 
 template <int D, class K>
@@ -425,8 +434,8 @@ EMP_ALWAYS_INLINE void Solver<D, K>::lawOfRun2(const int* ids, int n)
         e[1][i] = E(0, 1);
         e[2][i] = E(1, 0);
         e[3][i] = E(1, 1);
-        lawInputs(p, c[i], lambda[i], mu[i]);
     }
+    lawInputs(ids, n, c, lambda, mu);
     forLanes(n, [&](int i) EMP_LAMBDA_INLINE {
         Law::response2(e[0][i], e[1][i], e[2][i], e[3][i], c[i], lambda[i], mu[i], sigma[0][i], sigma[1][i],
                        sigma[2][i], sigma[3][i], psiPlus[i], psiMinus[i]);
@@ -459,8 +468,8 @@ EMP_ALWAYS_INLINE void Solver<D, K>::lawOfRun3(const int* ids, int n)
             e[3][i] = E(1, 0);
             e[4][i] = E(2, 0);
             e[5][i] = E(2, 1);
-            lawInputs(p, c[i], lambda[i], mu[i]);
         }
+        lawInputs(ids, n, c, lambda, mu);
         forLanes(n, [&](int i) EMP_LAMBDA_INLINE {
             bool ok;
             Law::response3(e[0][i], e[1][i], e[2][i], e[3][i], e[4][i], e[5][i], c[i], lambda[i], mu[i], sigma[0][i],
@@ -553,9 +562,9 @@ EMP_ALWAYS_INLINE void Solver<D, K>::corotationalOfRun2(const int* ids, const St
             const Mat<D>& F = a.P.deformationGradient[p];
             l[0][i] = L(0, 0), l[1][i] = L(0, 1), l[2][i] = L(1, 0), l[3][i] = L(1, 1);
             f[0][i] = F(0, 0), f[1][i] = F(0, 1), f[2][i] = F(1, 0), f[3][i] = F(1, 1);
-            lawInputs(p, c[i], lambda[i], mu[i]);
         }
     });
+    lawInputs(ids, n, c, lambda, mu);
     forLanes(n, [&](int i) EMP_LAMBDA_INLINE {
         const Plain2 F = deformationUpdate2(dt, {l[0][i], l[1][i], l[2][i], l[3][i]}, {f[0][i], f[1][i], f[2][i], f[3][i]});
         f[0][i] = F.xx, f[1][i] = F.xy, f[2][i] = F.yx, f[3][i] = F.yy;
@@ -683,9 +692,8 @@ EMP_NOINLINE void Solver<D, K>::corotationalOfRun3(const int* ids, const St* st,
             using Law = decltype(law);
             // The lanes' arrays reuse x and y (free after the iteration): strains, then stresses.
             alignas(64) double c[R], lambda[R], mu[R], psiPlus[R], psiMinus[R], ordinary[R];
+            lawInputs(ids, n, c, lambda, mu);
             for (int i = 0; i < n; ++i) {
-                const int p = ids[i];
-                lawInputs(p, c[i], lambda[i], mu[i]);
                 const int at[6] = {0, 4, 8, 3, 6, 7};  // the lower triangle
                 for (int k = 0; k < 6; ++k) x[k][i] = u[at[k]][i] - (k < 3 ? 1.0 : 0.0);
             }

@@ -288,9 +288,10 @@ private:
     void lawAt(int p);
     /// The law at the n <= stressRun points ids (lawAt for each, or lawOfRun2 / lawOfRun3).
     void lawOfRun(const int* ids, int n);
-    /// A run's lanes of the law, point p: its damage c and its material's Lame constants in,
-    /// then its energy c psi+ + psi- and history max(H, psi+) (Eq 22) out.
-    void lawInputs(int p, double& c, double& lambda, double& mu) const;
+    /// A run's lanes of the law: the damage c and the material's Lame constants of the n points
+    /// ids in (lawInputs), then each point's energy c psi+ + psi- and history max(H, psi+)
+    /// (Eq 22) out (storeEnergies).
+    void lawInputs(const int* ids, int n, double* c, double* lambda, double* mu) const;
     void storeEnergies(int p, double c, double psiPlus, double psiMinus);
     /// The law at n points at once, through the law's pointwise 2D response (Law.hpp).
     template <class Law> void lawOfRun2(const int* ids, int n);
