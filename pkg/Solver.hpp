@@ -282,8 +282,8 @@ private:
     /// PassArrays, or any A with A.mass, A.velocity and the points' velocities A.P.v).
     template <class A> Mat<D> velocityGradient(const A& a, int p, const St& st) const;
     Mat<D> velocityGradient(int p, const St& st) const;
-    /// The strain increment of point p (small strain).
-    void updateStrain(const PassArrays& a, int p, const St& st, double dt);
+    /// The strain increment of point p (small strain); invh = 1 / h.
+    void updateStrain(const PassArrays& a, int p, const St& st, double dt, double invh);
     /// The law at point p: stress, psi+, psi-, history.
     void lawAt(int p);
     /// The law at the n <= stressRun points ids (lawAt for each, or lawOfRun2 / lawOfRun3).

@@ -484,27 +484,8 @@ template <int D, class K> struct Stencil {
         return withNodeOf(g, [&](auto nodeOf) EMP_LAMBDA_INLINE {
             Mat<D> L;
             if constexpr (D == 2 && std::is_lvalue_reference_v<decltype(v(0))>) {
-                // The sums below in one 4-lane vector (one AVX register inside withLaneIsa): lanes
-                // 0-1 carry a and c0, lanes 2-3 b and c1, each lane the same operations in the
-                // same order, so the same values. Each node's velocity is read once into both
-                // halves.
-                typedef double V2 __attribute__((vector_size(2 * sizeof(double))));
-                typedef double V4 __attribute__((vector_size(4 * sizeof(double))));
-                // (x, x, y, y) from two halves (GCC built such vectors in memory otherwise: Lane3::of)
-#define EMP_PAIR(x, y) V4(__builtin_shufflevector(V2{x, x}, V2{y, y}, 0, 1, 2, 3))
-                V4 q[S];
-                for (int i = 0; i < S; ++i) q[i] = EMP_PAIR(dw[0][i], w[0][i]);
-                V4 c{0.0, 0.0, 0.0, 0.0};
-                for (int j = 0; j < S; ++j) {
-                    V4 ab{0.0, 0.0, 0.0, 0.0};
-                    for (int i = 0; i < S; ++i) {
-                        V2 vi;
-                        __builtin_memcpy(&vi, v(nodeOf(i, j, 0)).data(), sizeof(V2));
-                        ab += q[i] * V4(__builtin_shufflevector(vi, vi, 0, 1, 0, 1));
-                    }
-                    c += EMP_PAIR(w[1][j], dw[1][j]) * ab;
-                }
-#undef EMP_PAIR
+                Lane3::V c;  // (c0 in lanes 0-1, c1 in 2-3)
+                gradientSums2(nodeOf, v, c);
                 L.col(0) = g.invh * Vec<2>(c[0], c[1]);
                 L.col(1) = g.invh * Vec<2>(c[2], c[3]);
             } else if constexpr (D == 2) {
@@ -552,6 +533,43 @@ template <int D, class K> struct Stencil {
             }
             return L;
         });
+    }
+
+    /// 2D, v giving elements of the nodal arrays: the unscaled columns of gradientOf's L (L =
+    /// c / h), c0 in lanes 0-1 and c1 in lanes 2-3 of one 4-lane vector (one AVX register inside
+    /// withLaneIsa): lanes 0-1 carry a = sum dw_x,i v_i and then c0 = sum w_y,j a_j, lanes 2-3 b =
+    /// sum w_x,i v_i and then c1 = sum dw_y,j b_j, each lane the same operations in the same order
+    /// as the sums by rows (rowSums), so the same values. Each node's velocity is read once into
+    /// both halves. nodeOf as withNodeOf gives it. (The vector is an out parameter: returned,
+    /// it would change the ABI of the baseline's copy, -Wpsabi.)
+    template <class N, class V> EMP_ALWAYS_INLINE void gradientSums2(N&& nodeOf, V&& v, Lane3::V& c) const
+    {
+        static_assert(D == 2, "2D");
+        typedef double V2 __attribute__((vector_size(2 * sizeof(double))));
+        typedef Lane3::V V4;
+        // (x, x, y, y) as a blend of two broadcasts (from pairs of 2-lane halves, GCC added a
+        // register copy to each half)
+        const auto pair = [](double x, double y) EMP_LAMBDA_INLINE {
+            return __builtin_shufflevector(V4{x, x, x, x}, V4{y, y, y, y}, 0, 1, 6, 7);
+        };
+        V4 q[S];
+        for (int i = 0; i < S; ++i) q[i] = pair(dw[0][i], w[0][i]);
+        c = V4{0.0, 0.0, 0.0, 0.0};
+        for (int j = 0; j < S; ++j) {
+            V4 ab{0.0, 0.0, 0.0, 0.0};
+            for (int i = 0; i < S; ++i) {
+                V2 vi;
+                __builtin_memcpy(&vi, v(nodeOf(i, j, 0)).data(), sizeof(V2));
+                ab += q[i] * V4(__builtin_shufflevector(vi, vi, 0, 1, 0, 1));
+            }
+            c += pair(w[1][j], dw[1][j]) * ab;
+        }
+    }
+
+    /// 2D: gradientSums2 of the nodal velocities v (Grid's array) on this support.
+    template <class V> EMP_ALWAYS_INLINE void velocitySums2(const Grid<D>& g, V&& v, Lane3::V& c) const
+    {
+        withNodeOf(g, [&](auto nodeOf) EMP_LAMBDA_INLINE { gradientSums2(nodeOf, v, c); });
     }
 
     /// a = sum_i dw_x,i v(row(i)) and b = sum_i w_x,i v(row(i)) over the S nodes row(0) ...
