@@ -548,12 +548,11 @@ template <int D, class K> struct Stencil {
         typedef double V2 __attribute__((vector_size(2 * sizeof(double))));
         typedef Lane3::V V4;
         // (x, x, y, y) as a blend of two broadcasts (from pairs of 2-lane halves, GCC added a
-        // register copy to each half)
-        const auto pair = [](double x, double y) EMP_LAMBDA_INLINE {
-            return __builtin_shufflevector(V4{x, x, x, x}, V4{y, y, y, y}, 0, 1, 6, 7);
-        };
+        // register copy to each half; a macro: a function returning the vector would change
+        // the baseline copy's ABI, -Wpsabi)
+#define EMP_PAIR(x, y) __builtin_shufflevector(V4{x, x, x, x}, V4{y, y, y, y}, 0, 1, 6, 7)
         V4 q[S];
-        for (int i = 0; i < S; ++i) q[i] = pair(dw[0][i], w[0][i]);
+        for (int i = 0; i < S; ++i) q[i] = EMP_PAIR(dw[0][i], w[0][i]);
         c = V4{0.0, 0.0, 0.0, 0.0};
         for (int j = 0; j < S; ++j) {
             V4 ab{0.0, 0.0, 0.0, 0.0};
@@ -562,8 +561,9 @@ template <int D, class K> struct Stencil {
                 __builtin_memcpy(&vi, v(nodeOf(i, j, 0)).data(), sizeof(V2));
                 ab += q[i] * V4(__builtin_shufflevector(vi, vi, 0, 1, 0, 1));
             }
-            c += pair(w[1][j], dw[1][j]) * ab;
+            c += EMP_PAIR(w[1][j], dw[1][j]) * ab;
         }
+#undef EMP_PAIR
     }
 
     /// 2D: gradientSums2 of the nodal velocities v (Grid's array) on this support.
