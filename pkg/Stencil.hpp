@@ -174,13 +174,23 @@ template <int D, class K> struct Stencil {
         int i = 0;
         for (; i + 4 <= n; i += 4) {
             for (int m = 0; m + 4 <= M; m += 4) {
-                V4 a[4];
-                for (int q = 0; q < 4; ++q) __builtin_memcpy(&a[q], &v[m + q][i], sizeof(V4));
-                const V4 lo01 = __builtin_shufflevector(a[0], a[1], 0, 4, 2, 6), hi01 = __builtin_shufflevector(a[0], a[1], 1, 5, 3, 7);
-                const V4 lo23 = __builtin_shufflevector(a[2], a[3], 0, 4, 2, 6), hi23 = __builtin_shufflevector(a[2], a[3], 1, 5, 3, 7);
-                const V4 o[4] = {__builtin_shufflevector(lo01, lo23, 0, 1, 4, 5), __builtin_shufflevector(hi01, hi23, 0, 1, 4, 5),
-                                 __builtin_shufflevector(lo01, lo23, 2, 3, 6, 7), __builtin_shufflevector(hi01, hi23, 2, 3, 6, 7)};
-                for (int q = 0; q < 4; ++q) __builtin_memcpy(at(i + q) + m * sizeof(double), &o[q], sizeof(V4));
+                // (Four named vectors, each loaded and stored once: as arrays with loops over
+                // them, GCC copied each vector through the stack in 2-lane halves and read it
+                // back whole, which waits until the halves' stores are done.)
+                V4 a0, a1, a2, a3;
+                __builtin_memcpy(&a0, &v[m][i], sizeof(V4));
+                __builtin_memcpy(&a1, &v[m + 1][i], sizeof(V4));
+                __builtin_memcpy(&a2, &v[m + 2][i], sizeof(V4));
+                __builtin_memcpy(&a3, &v[m + 3][i], sizeof(V4));
+                const V4 lo01 = __builtin_shufflevector(a0, a1, 0, 4, 2, 6), hi01 = __builtin_shufflevector(a0, a1, 1, 5, 3, 7);
+                const V4 lo23 = __builtin_shufflevector(a2, a3, 0, 4, 2, 6), hi23 = __builtin_shufflevector(a2, a3, 1, 5, 3, 7);
+                const V4 o0 = __builtin_shufflevector(lo01, lo23, 0, 1, 4, 5), o1 = __builtin_shufflevector(hi01, hi23, 0, 1, 4, 5);
+                const V4 o2 = __builtin_shufflevector(lo01, lo23, 2, 3, 6, 7), o3 = __builtin_shufflevector(hi01, hi23, 2, 3, 6, 7);
+                const std::size_t off = m * sizeof(double);
+                __builtin_memcpy(at(i) + off, &o0, sizeof(V4));
+                __builtin_memcpy(at(i + 1) + off, &o1, sizeof(V4));
+                __builtin_memcpy(at(i + 2) + off, &o2, sizeof(V4));
+                __builtin_memcpy(at(i + 3) + off, &o3, sizeof(V4));
             }
             for (int m = M / 4 * 4; m < M; ++m)
                 for (int q = 0; q < 4; ++q) __builtin_memcpy(at(i + q) + m * sizeof(double), &v[m][i + q], sizeof(double));
