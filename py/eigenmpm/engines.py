@@ -12,6 +12,7 @@ doc/performance.md "Session 28").
 import builtins
 import itertools
 import math
+import operator
 import sys
 import warnings
 import weakref
@@ -27,18 +28,28 @@ from .params import Param, apply, declare, takes, vec3
 # holds the Python object of a Python subclass), one that no one holds is freed.
 _registry = weakref.WeakValueDictionary()
 _keys = itertools.count()
-# MpmEngine -> (what its attachments depend on, the stages with a per-step part, those with an
-# after-step part): MpmEngine._syncPhysics. Kept outside the engines, whose state is saved.
-_attached = weakref.WeakKeyDictionary()
+# id(MpmEngine) -> (a weak reference to it, what its attachments depend on, the stages with a
+# per-step part, those with an after-step part): MpmEngine._syncPhysics. Kept outside the
+# engines, whose state is saved; a plain dict, read without a Python-level call (a
+# WeakKeyDictionary's get is one), its entry removed when its engine goes.
+_attached = {}
+# The `dead` flag of an engine, read in C by map() (MpmEngine._syncPhysics).
+_dead = operator.attrgetter("dead")
 _CALL = "_eigenmpm_engine"
 COMMAND_PREFIX = _CALL + "("
 # The commands of earlier versions (state._refuseOrphans recognises them in a loaded scene).
 LEGACY_PREFIXES = ("import eigenmpm.engines as _m; _m._registry[",)
 
 
+# key -> a weak reference to the engine: _act's lookup without a Python-level call (the
+# WeakValueDictionary's __getitem__ is one; inside O.run it runs cold, doc/performance.md
+# "Session 33"). An entry goes with its engine.
+_refs = {}
+
+
 def _act(key):
     """What an engine's command calls: the engine registered under `key` acts."""
-    _registry[key]._action()
+    _refs[key]()._action()
 
 
 setattr(builtins, _CALL, _act)
@@ -47,6 +58,7 @@ setattr(builtins, _CALL, _act)
 def _register(engine):
     key = next(_keys)
     _registry[key] = engine
+    _refs[key] = weakref.ref(engine, lambda _, key=key: _refs.pop(key, None))
     return f"{COMMAND_PREFIX}{key})"
 
 
@@ -370,7 +382,7 @@ class MpmEngine(PyRunner):
         """Frees the solver and what refers to the scene (O.reset(), see _wrapReset)."""
         self.solver = _Released(f"the solver of MpmEngine {self.label!r}")
         self.bcs, self.recorders, self.physics, self._materials = {}, [], {}, {}
-        _attached.pop(self, None)
+        _attached.pop(id(self), None)
         self._released = True
 
     # --- specimen -------------------------------------------------------------------------
@@ -636,21 +648,22 @@ class MpmEngine(PyRunner):
     def _syncPhysics(self):
         """A physics engine (EigenErosion, ...) acts only while it is in O.engines and not dead:
         each step, those there that work for this engine attach their stage, and any other
-        attached one is detached. Returns O.engines.
+        attached one is detached.
 
         What is attached depends only on O.engines (which engines, in which order, which are
         dead), on this engine's solver and on what it has attached: when none of these changed
         since the last step, the attachments stand and only each stage's per-step part runs
         (``beforeStep``: BodyContact reads the bodies). ``attach`` is idempotent apart from that
         part. (Inside O.run, after the step has left the interpreter's code out of the caches,
-        the full test of every engine cost about 30 us per step, doc/performance.md "Session 28".)"""
+        the full test of every engine cost about 30 us per step, doc/performance.md "Session 28".)
+        Returns O.engines and the stages with an after-step part."""
         engines = O.engines
-        key = (id(self.solver), len(self.physics), tuple((id(e), e.dead) for e in engines))
-        known = _attached.get(self)
-        if known is not None and known[0] == key:
-            for e in known[1]:
+        key = (id(self.solver), len(self.physics), tuple(map(id, engines)), tuple(map(_dead, engines)))
+        known = _attached.get(id(self))
+        if known is not None and known[1] == key and known[0]() is self:
+            for e in known[2]:
                 e.beforeStep(self)
-            return engines
+            return engines, known[3]
         active = [e for e in engines if e is not self and callable(getattr(type(e), "attach", None))
                   and not e.dead and findEngine(e.engine) is self]
         for e in list(self.physics.values()):
@@ -658,46 +671,53 @@ class MpmEngine(PyRunner):
                 e.detach(self)
         for e in active:
             e.attach(self)
-        key = (id(self.solver), len(self.physics), key[2])
-        _attached[self] = (key, [e for e in active if callable(getattr(type(e), "beforeStep", None))],
-                           [e for e in self.physics.values() if callable(getattr(type(e), "afterStep", None))])
-        return engines
+        key = (id(self.solver), len(self.physics), key[2], key[3])
+        me = id(self)
+        known = _attached[me] = (weakref.ref(self, lambda _, me=me: _attached.pop(me, None)), key,
+                                 [e for e in active if callable(getattr(type(e), "beforeStep", None))],
+                                 [e for e in self.physics.values() if callable(getattr(type(e), "afterStep", None))])
+        return engines, known[3]
 
     def _action(self):
         # YADE's O.run thread has no Python thread state of its own: keep the one this call made,
         # so that the PyRunner calls after it (ours and the user's) do not make and delete one
         # each (py/module.cpp, keepThreadState).
+        # (This runs at every iteration, after the last step has left the interpreter's code and
+        # data out of the caches: each attribute read of YADE's objects costs microseconds here,
+        # so each is read once. doc/performance.md, "Session 33".)
         _eigenmpm.keepThreadState()
-        engines = self._syncPhysics()
+        engines, after = self._syncPhysics()
+        solver = self.solver
         if not self._started:
             self._started = True
             self._checkCracks()
-            if parallel.worldSize() > 1 and self.solver.steps == 0 and self.solver.ranks == 1:  # mpiexec -n N
-                self.solver.distribute(self.rankColumns)
+            if parallel.worldSize() > 1 and solver.steps == 0 and solver.ranks == 1:  # mpiexec -n N
+                solver.distribute(self.rankColumns)
         # O.iter going back behind this solver means the scene was reloaded without its EigenMPM
         # state (eigenmpm.state): stepping on would continue from a later state, silently wrong.
         # (Forward skips happen: YADE resumes an iteration after an engine that raised.)
-        if self._lastIter is not None and O.iter <= self._lastIter:
+        now = O.iter
+        if self._lastIter is not None and now <= self._lastIter:
             raise RuntimeError(f"EigenMPM: MpmEngine {self.label!r} last stepped at iteration "
-                               f"{self._lastIter} (solver step {self.solver.steps}) but YADE is at "
-                               f"iteration {O.iter}: the scene went back without its EigenMPM state "
+                               f"{self._lastIter} (solver step {solver.steps}) but YADE is at "
+                               f"iteration {now}: the scene went back without its EigenMPM state "
                                "(load it with O.load/O.loadTmp after importing eigenmpm, or rebuild it)")
-        self._lastIter = O.iter
+        self._lastIter = now
         t = O.time
-        self.solver.time = t
+        solver.time = t
         for bc in self.bcs.values():
             bc._update(t)
-        threads = self.threads if self.threads else O.numThreads
-        if self.solver.ranks > 1:
-            self.solver.setRebalance(float(self.rebalance), int(self.rebalancePeriod))
+        threads = self.threads or O.numThreads
+        if solver.ranks > 1:
+            solver.setRebalance(float(self.rebalance), int(self.rebalancePeriod))
         try:
-            self.solver.step(O.dt, int(threads))
+            solver.step(O.dt, int(threads))
         except Exception as err:
             for rec in self.recorders:
                 if any(rec is e for e in engines) and not rec.dead:
                     rec.onFailure(self, err)
             raise
-        for phys in _attached[self][2]:  # e.g. BodyContact: the forces on YADE's bodies
+        for phys in after:  # e.g. BodyContact: the forces on YADE's bodies
             phys.afterStep(self)
         if parallel.worldSize() > 1 and parallel.agreeOnStop():  # a signal on any rank: all stop here
             O.pause()
