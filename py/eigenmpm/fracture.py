@@ -202,7 +202,13 @@ class EigenErosion(PyRunner):
         if not any(mpm is e for e in O.engines):
             raise ValueError(f"EigenMPM: engine = MpmEngine {mpm.label!r} is invalid; allowed: an MpmEngine in "
                              f"O.engines (EigenErosion {self.label!r} acts only on an engine of the scene)")
-        self.record(self.attach(mpm))
+        # The MpmEngine attaches this stage at its step while this engine is in O.engines and not
+        # dead; attach() (which finds the engine and checks the state again) only when it has not
+        # yet (this engine before it in O.engines, at the first iteration). A record follows a
+        # step, when every Python call runs cold (doc/performance.md, "Session 33").
+        if not (self._mpm is mpm and sameStage(mpm.solver.erosion, self.core)):
+            mpm = self.attach(mpm)
+        self.record(mpm)
 
     # --- diagnostics ----------------------------------------------------------------------
     def dissipatedEnergy(self):
