@@ -10,8 +10,9 @@ step) and of the step itself.
 
 Wall time cannot resolve a few microseconds per iteration on this shared machine (the share of
 bench_yade_side.py moves by 1-3 points with the machine's state, doc/performance.md
-"Session 33"); these counts are the same from run to run. They leave out what YADE's own loop
-and C++ engines do between the PyRunners.
+"Session 33"); these counts repeat (with the fixed hash seed used here: instructions to about
+0.15 %, last-level misses to about 1 %). They leave out what YADE's own loop and C++ engines do
+between the PyRunners.
 
     /usr/bin/python3.11 bench/count_yade_side.py [LABEL=]PYTHONPATH ... [--iters 12,36] [--h-mm 0.5]
 
