@@ -12,9 +12,14 @@ YADE, one thread:
 A round builds the scene twice from its start and steps it to --end-us, once each way, the order
 alternating from round to round; times are the process's CPU time. Reported per round:
 - `yade_s`: O.run with the example's engines; `inside_step_s`: the part of it inside the
-  solver's step (the C++ step, timed around each call);
+  solver's step (the C++ step, timed in C++ around each call: `_eigenmpm.timeSteps`; a Python
+  wrapper around the step, as before session 34, ran cold after each step and added its own
+  cost to the YADE side);
 - `share`: (yade_s - inside_step_s) / inside_step_s, what YADE's loop, the engines' Python and
   the recorders add per iteration (the robust figure: one run, no difference of two runs);
+- `main_thread_s` and `share_run_thread`: the CPU time of the script's own thread while it waits
+  in O.run(wait=True) (YADE's wait polls, about 0.2-0.4 % of the steps' time; on a machine with
+  a core to spare it runs beside the stepping thread, not in its way), and the share without it;
 - `bare_s` and `ratio` = yade_s / bare_s: the same, read against the loop (it also carries what
   the Python between the steps costs the step itself: caches it leaves cold);
 - each engine's own time per iteration (YADE's O.timingEnabled).
@@ -32,32 +37,12 @@ import time
 from yade import O, plot
 
 import eigenmpm as em
+from eigenmpm import _eigenmpm
 
 # (run from the repository root; or the examples beside the package's source, which build/python links to)
 sys.path[:0] = [os.path.join(os.getcwd(), "examples"),
                 os.path.join(os.path.dirname(os.path.realpath(em.__file__)), "..", "..", "examples")]
 import crack_branching  # noqa: E402
-
-
-class _TimedSolver:
-    """The MpmEngine's solver, its step timed (CPU time); everything else passed on."""
-
-    def __init__(self, solver):
-        object.__setattr__(self, "_solver", solver)
-        object.__setattr__(self, "inside", 0.0)
-
-    def step(self, *args):
-        t = time.process_time()
-        try:
-            return self._solver.step(*args)
-        finally:
-            object.__setattr__(self, "inside", self.inside + time.process_time() - t)
-
-    def __getattr__(self, name):
-        return getattr(self._solver, name)
-
-    def __setattr__(self, name, value):
-        setattr(self._solver, name, value)
 
 
 def _state(solver):
@@ -82,18 +67,18 @@ def yadeRun(o, out, minimal=False):
         O.engines = [mpm, crack, em.PlotRecorder(iterPeriod=crack.iterPeriod), vtk,
                      em.Progress(endIter=steps, realPeriod=20)]
     O.run(1, True)  # the first iteration builds the solver's state and writes the first VTK file
-    timed = _TimedSolver(mpm.solver)
-    mpm.solver = timed
     O.timingEnabled = True
     for e in O.engines:
         e.execTime, e.execCount = 0, 0
-    t = time.process_time()
+    _eigenmpm.timeSteps(True)  # (the step's CPU time, summed in C++)
+    t, tMain = time.process_time(), time.thread_time()
     O.run(steps - 1, True)
-    total = time.process_time() - t
+    total, waiting = time.process_time() - t, time.thread_time() - tMain
+    inside = _eigenmpm.stepCpuSeconds()
+    _eigenmpm.timeSteps(False)
     O.timingEnabled = False
     engines = {e.label or type(e).__name__: round(e.execTime * 1e-9 / (steps - 1) * 1e3, 4) for e in O.engines}
-    mpm.solver = timed._solver
-    return total, timed.inside, engines, _state(mpm.solver), len(crack.core.events())
+    return total, inside, waiting, engines, _state(mpm.solver), len(crack.core.events())
 
 
 def bareRun(o):
@@ -128,22 +113,29 @@ def main(argv):
                     help="O.engines = [MpmEngine, EigenErosion] without records: the part YADE's loop and the "
                          "MpmEngine's Python take alone")
     a = ap.parse_args(argv)
+    if not hasattr(_eigenmpm, "timeSteps"):
+        sys.exit("bench_yade_side.py: this package's module has no timeSteps (added in session 34); to compare "
+                 "older Python files, copy them into a package with a current module")
     o = dict(crack_branching.DEFAULTS, h_mm=a.h_mm, dt_us=a.dt_us, endTime_us=a.end_us, vtkPeriod_us=1000.0)
-    shares, ratios = [], []
+    shares, runThread, ratios = [], [], []
     with tempfile.TemporaryDirectory() as out:
         for r in range(a.rounds):
             result = {}
             for way in (("yade", "bare") if r % 2 == 0 else ("bare", "yade")):
                 result[way] = yadeRun(o, out, a.minimal) if way == "yade" else bareRun(o)
-            yade, inside, engines, state, eroded = result["yade"]
+            yade, inside, waiting, engines, state, eroded = result["yade"]
             bare, bareState, bareEroded = result["bare"]
             assert state == bareState and eroded == bareEroded, "the YADE path changed the run"
             shares.append((yade - inside) / inside)
+            runThread.append((yade - waiting - inside) / inside)
             ratios.append(yade / bare)
             print(json.dumps({"round": r + 1, "yade_s": round(yade, 2), "inside_step_s": round(inside, 2),
-                              "share": round(shares[-1], 4), "bare_s": round(bare, 2), "ratio": round(ratios[-1], 4),
+                              "share": round(shares[-1], 4), "main_thread_s": round(waiting, 3),
+                              "share_run_thread": round(runThread[-1], 4),
+                              "bare_s": round(bare, 2), "ratio": round(ratios[-1], 4),
                               "eroded": eroded, "engines_wall_ms_per_iteration": engines}), flush=True)
-    print(f"YADE side per iteration: median share {statistics.median(shares):.4f}, median ratio to the bare loop "
+    print(f"YADE side per iteration: median share {statistics.median(shares):.4f} (of the run's thread alone "
+          f"{statistics.median(runThread):.4f}), median ratio to the bare loop "
           f"{statistics.median(ratios):.4f} over {a.rounds} rounds (h = {a.h_mm} mm, dt = {a.dt_us} us, "
           f"{a.end_us} us)")
 

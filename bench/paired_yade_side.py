@@ -6,7 +6,9 @@ alternating order, in one invocation:
     bench/paired_yade_side.py OLD_PYTHONPATH NEW_PYTHONPATH [--rounds 4] [bench_yade_side.py options]
 
 Each PYTHONPATH is a build's python/ folder; copy an old build's with `cp -rL` (build/python
-links the package's .py files to the source tree, which would otherwise be the new ones). The
+links the package's .py files to the source tree, which would otherwise be the new ones); its
+module must have `_eigenmpm.timeSteps` (session 34 on): to compare older Python files, copy them
+into a copy of a current package. The
 benchmark and the example it builds are this tree's. Printed: each run's line of
 bench_yade_side.py, then each package's shares (the YADE side over the time inside the step)
 and their median.

@@ -6,6 +6,7 @@
 #include <boost/python/numpy.hpp>
 #include <cctype>
 #include <cstdint>
+#include <ctime>
 #include <limits>
 #include <cmath>
 #include <sstream>
@@ -120,6 +121,24 @@ struct NoGil {
     PyThreadState* state = PyEval_SaveThread();
     ~NoGil() { PyEval_RestoreThread(state); }
 };
+
+/// The process's CPU time spent inside solvers' steps, for benchmarks that compare it with the
+/// whole run's (bench/bench_yade_side.py: what the YADE side adds per iteration). Off unless a
+/// benchmark turns it on (timeSteps): then each step reads the process's CPU clock, the clock
+/// Python's time.process_time reads, before and after (two calls of about 0.3 us). Kept here
+/// rather than timed from Python: a Python wrapper around the solver's step ran cold after each
+/// step and counted its own cost on the YADE side (doc/performance.md, "Session 34").
+struct StepClock {
+    bool on = false;
+    double seconds = 0;
+    static double now()
+    {
+        timespec t;
+        clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+        return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+    }
+};
+StepClock stepClock;
 
 /// YADE steps O.run in a thread of its own (a new one for each O.run) that Python does not know:
 /// every PyRunner call, which is every one of our engines, makes a Python thread state for it
@@ -575,7 +594,15 @@ template <class Sv> struct Bind {
     static void step(Sv& s, double dt, int nThreads)
     {
         NoGil nogil;
-        s.step(dt, nThreads);
+        if (!stepClock.on) return s.step(dt, nThreads);
+        const double t0 = StepClock::now();
+        try {
+            s.step(dt, nThreads);
+        } catch (...) {
+            stepClock.seconds += StepClock::now() - t0;
+            throw;
+        }
+        stepClock.seconds += StepClock::now() - t0;
     }
     static void setDomain(Sv& s, bp::object lo, bp::object hi) { s.setDomain(toVec3(lo, "domain lo"), toVec3(hi, "domain hi")); }
     static void setGravity(Sv& s, bp::object g) { s.setGravity(toVec3(g, "gravity")); }
@@ -1028,6 +1055,14 @@ BOOST_PYTHON_MODULE(EMP_MODULE_NAME)
     }, (bp::arg("width")),
             "Sets the lanes' width (capped at what the processor runs; the results are the same in every width); "
             "returns the width set.");
+    bp::def("timeSteps", +[](bool on) {
+        stepClock.on = on;
+        stepClock.seconds = 0;
+    }, (bp::arg("on")),
+            "Benchmarks: from now on (on=True) or no longer, sum the process's CPU time (time.process_time's "
+            "clock) spent inside every solver's step; resets the sum.");
+    bp::def("stepCpuSeconds", +[] { return stepClock.seconds; },
+            "The process's CPU seconds spent inside solvers' steps since timeSteps(True).");
     bp::def("keepThreadState", &keepThreadState,
             "Keeps the calling thread's Python thread state until the thread ends, if the current call made it "
             "(YADE's O.run thread inside a PyRunner): later PyRunner calls in that thread do not make and delete "

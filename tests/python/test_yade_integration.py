@@ -218,3 +218,26 @@ def test_yade_run_thread_keeps_its_python_state_while_it_runs_and_gives_it_back(
     assert _settle(_eigenmpm.threadStates, before) == before
     O.step()  # (in the main thread)
     assert mpm.solver.steps == 87
+
+
+def test_step_clock_sums_the_cpu_time_inside_the_steps_only_while_on():
+    # bench/bench_yade_side.py reads the steps' CPU time from the module (timeSteps): off by
+    # default, reset when turned on or off, and a part of the process's CPU time.
+    import time
+    from eigenmpm import _eigenmpm
+    mpm = em.MpmEngine(h=0.01)
+    mpm.fill(pack.inAlignedBox((0, 0, 0), (0.2, 0.1, 0)), concrete())
+    O.engines = [mpm]
+    O.dt = 0.5 * mpm.criticalTimeStep()
+    O.run(2, True)
+    assert _eigenmpm.stepCpuSeconds() == 0.0  # (off)
+    _eigenmpm.timeSteps(True)
+    t = time.process_time()
+    O.run(20, True)
+    elapsed, inside = time.process_time() - t, _eigenmpm.stepCpuSeconds()
+    assert 0.0 < inside <= elapsed
+    O.run(5, True)
+    assert _eigenmpm.stepCpuSeconds() > inside  # (still summing)
+    _eigenmpm.timeSteps(False)
+    O.run(5, True)
+    assert _eigenmpm.stepCpuSeconds() == 0.0
