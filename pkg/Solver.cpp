@@ -574,9 +574,19 @@ EMP_ALWAYS_INLINE void Solver<D, K>::corotationalOfRun2(const int* ids, const St
         const PassArrays a = passArrays();
         for (int i = 0; i < n; ++i) {
             const int p = ids[i];
-            const Mat<D> L = velocityGradient(a, p, st[i]);
+            if constexpr (!K::gradientJumpsAtNodes) {
+                // L's columns from the 4-lane sums, each lane stored where it goes (as a 2 x 2
+                // matrix GCC took the lanes apart through the stack; updateStrain): L = c / h,
+                // the operations of velocityGradient.
+                Lane3::V c;
+                st[i].velocitySums2(grid_, [&](int I) EMP_LAMBDA_INLINE -> const Vec<D>& { return a.velocity[I]; }, c);
+                const Lane3::V L = grid_.invh * c;  // {L00, L10, L01, L11}
+                l[0][i] = L[0], l[1][i] = L[2], l[2][i] = L[1], l[3][i] = L[3];
+            } else {
+                const Mat<D> L = velocityGradient(a, p, st[i]);
+                l[0][i] = L(0, 0), l[1][i] = L(0, 1), l[2][i] = L(1, 0), l[3][i] = L(1, 1);
+            }
             const Mat<D>& F = a.P.deformationGradient[p];
-            l[0][i] = L(0, 0), l[1][i] = L(0, 1), l[2][i] = L(1, 0), l[3][i] = L(1, 1);
             f[0][i] = F(0, 0), f[1][i] = F(0, 1), f[2][i] = F(1, 0), f[3][i] = F(1, 1);
         }
     });
