@@ -643,9 +643,19 @@ EMP_NOINLINE void Solver<D, K>::corotationalOfRun3(const int* ids, const St* st,
         };
         const PassArrays a = passArrays();
         for (int i = 0; i < n; ++i) {
-            const Mat<3> L = velocityGradient(a, ids[i], st[i]);
+            if constexpr (!K::gradientJumpsAtNodes) {
+                // L(row, column) = c_column[row] / h from the Lane3 sums, the operations of
+                // velocityGradient, each lane stored where it goes (not through a 3 x 3 matrix).
+                Lane3 c[3];
+                st[i].velocitySums3(grid_, [&](int I) EMP_LAMBDA_INLINE -> const Vec<D>& { return a.velocity[I]; },
+                                    c[0], c[1], c[2]);
+                for (int k = 0; k < 9; ++k) r[k][i] = grid_.invh * c[k % 3].v[k / 3];
+            } else {
+                const Mat<3> L = velocityGradient(a, ids[i], st[i]);
+                for (int k = 0; k < 9; ++k) r[k][i] = L(k / 3, k % 3);
+            }
             const Mat<3>& F = a.P.deformationGradient[ids[i]];
-            for (int k = 0; k < 9; ++k) f[k][i] = F(k / 3, k % 3), r[k][i] = L(k / 3, k % 3);
+            for (int k = 0; k < 9; ++k) f[k][i] = F(k / 3, k % 3);
         }
         // F <- (I - dt L)^-1 F; the Newton iteration starts from F (state 1: iterating, 0: refused).
         for (int i = 0; i < n; ++i) {

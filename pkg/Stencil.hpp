@@ -513,23 +513,7 @@ template <int D, class K> struct Stencil {
                 // 3-vectors otherwise: the same operations on each component.
                 const auto sums = [&](auto zero, auto load, auto vec) EMP_LAMBDA_INLINE {
                     auto c0 = zero, c1 = zero, c2 = zero;
-                    for (int k = 0; k < S; ++k) {
-                        auto A = zero, B = zero, C = zero;
-                        for (int j = 0; j < S; ++j) {
-                            auto a = zero, b = zero;  // the sums over x of one row
-                            for (int i = 0; i < S; ++i) {
-                                const auto vi = load(nodeOf(i, j, k));
-                                a += dw[0][i] * vi;
-                                b += w[0][i] * vi;
-                            }
-                            A += w[1][j] * a;
-                            B += dw[1][j] * b;
-                            C += w[1][j] * b;
-                        }
-                        c0 += w[2][k] * A;
-                        c1 += w[2][k] * B;
-                        c2 += dw[2][k] * C;
-                    }
+                    gradientSums3(nodeOf, load, zero, c0, c1, c2);
                     L.col(0) = g.invh * vec(c0);
                     L.col(1) = g.invh * vec(c1);
                     L.col(2) = g.invh * vec(c2);
@@ -574,6 +558,40 @@ template <int D, class K> struct Stencil {
             c += EMP_PAIR(w[1][j], dw[1][j]) * ab;
         }
 #undef EMP_PAIR
+    }
+
+    /// 3D: the unscaled columns of gradientOf's L (L = (c0 c1 c2) / h) from the nodal values
+    /// load(I) (Lane3 or Eigen 3-vectors, starting from zero), the sums direction by direction:
+    /// the inner sums over x serve two columns.
+    template <class N, class Load, class T>
+    EMP_ALWAYS_INLINE void gradientSums3(N&& nodeOf, Load&& load, const T& zero, T& c0, T& c1, T& c2) const
+    {
+        c0 = zero, c1 = zero, c2 = zero;
+        for (int k = 0; k < S; ++k) {
+            T A = zero, B = zero, C = zero;
+            for (int j = 0; j < S; ++j) {
+                T a = zero, b = zero;  // the sums over x of one row
+                for (int i = 0; i < S; ++i) {
+                    const T vi = load(nodeOf(i, j, k));
+                    a += dw[0][i] * vi;
+                    b += w[0][i] * vi;
+                }
+                A += w[1][j] * a;
+                B += dw[1][j] * b;
+                C += w[1][j] * b;
+            }
+            c0 += w[2][k] * A;
+            c1 += w[2][k] * B;
+            c2 += dw[2][k] * C;
+        }
+    }
+
+    /// 3D: gradientSums3 of the nodal velocities v (Grid's array) on this support, in Lane3.
+    template <class V> EMP_ALWAYS_INLINE void velocitySums3(const Grid<D>& g, V&& v, Lane3& c0, Lane3& c1, Lane3& c2) const
+    {
+        withNodeOf(g, [&](auto nodeOf) EMP_LAMBDA_INLINE {
+            gradientSums3(nodeOf, [&](int I) EMP_LAMBDA_INLINE { return Lane3::load(v(I)); }, Lane3::zero(), c0, c1, c2);
+        });
     }
 
     /// 2D: gradientSums2 of the nodal velocities v (Grid's array) on this support.
