@@ -179,6 +179,16 @@ bool keepThreadState()
 #endif
 }
 
+/// keepThreadState as a plain C function of no arguments: the MpmEngine calls it at every step,
+/// right after the step has left the caches cold, where Boost.Python's dispatch of a call cost
+/// a few microseconds (doc/performance.md, "Session 34").
+PyObject* keepThreadStateCall(PyObject*, PyObject*) { return PyBool_FromLong(keepThreadState()); }
+PyMethodDef keepThreadStateMethod = {
+    "keepThreadState", keepThreadStateCall, METH_NOARGS,
+    "Keeps the calling thread's Python thread state until the thread ends, if the current call made it "
+    "(YADE's O.run thread inside a PyRunner): later PyRunner calls in that thread do not make and delete "
+    "one each. Returns whether the state is held. The MpmEngine calls it at every step."};
+
 /// The number of Python thread states of the interpreter (the current thread's included).
 int threadStates()
 {
@@ -604,6 +614,13 @@ template <class Sv> struct Bind {
         }
         stepClock.seconds += StepClock::now() - t0;
     }
+    /// time = t, then step(dt, nThreads): the MpmEngine's step in one call (each call through
+    /// Boost.Python costs microseconds right after a step, doc/performance.md "Session 34").
+    static void stepAt(Sv& s, double t, double dt, int nThreads)
+    {
+        s.setTime(t);
+        step(s, dt, nThreads);
+    }
     static void setDomain(Sv& s, bp::object lo, bp::object hi) { s.setDomain(toVec3(lo, "domain lo"), toVec3(hi, "domain hi")); }
     static void setGravity(Sv& s, bp::object g) { s.setGravity(toVec3(g, "gravity")); }
     static int addVelocityCondition(Sv& s, bp::object nodes, bp::object points, unsigned mask, bp::object vel, double ramp)
@@ -956,6 +973,8 @@ template <class Sv> struct Bind {
             .def("reaction", &reaction)
             .def("criticalTimeStep", &Sv::criticalTimeStep)
             .def("step", &step, (bp::arg("dt"), bp::arg("nThreads")))
+            .def("stepAt", &stepAt, (bp::arg("time"), bp::arg("dt"), bp::arg("nThreads")),
+                 "Sets time, then steps: time = t; step(dt, nThreads).")
             .def("kineticEnergy", &Sv::kineticEnergy)
             .def("elasticEnergy", &Sv::elasticEnergy)
             .def("positions", &positions)
@@ -1063,10 +1082,8 @@ BOOST_PYTHON_MODULE(EMP_MODULE_NAME)
             "clock) spent inside every solver's step; resets the sum.");
     bp::def("stepCpuSeconds", +[] { return stepClock.seconds; },
             "The process's CPU seconds spent inside solvers' steps since timeSteps(True).");
-    bp::def("keepThreadState", &keepThreadState,
-            "Keeps the calling thread's Python thread state until the thread ends, if the current call made it "
-            "(YADE's O.run thread inside a PyRunner): later PyRunner calls in that thread do not make and delete "
-            "one each. Returns whether the state is held. The MpmEngine calls it at every step.");
+    bp::scope().attr("keepThreadState") =
+        bp::object(bp::handle<>(PyCFunction_NewEx(&keepThreadStateMethod, nullptr, nullptr)));
     bp::def("threadStates", &threadStates, "The number of Python thread states of the interpreter.");
     bp::def("lawNames", +[] {
         bp::list l;

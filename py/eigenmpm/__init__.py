@@ -39,3 +39,7 @@ _state.install()  # O.save/O.load and O.saveTmp/O.loadTmp carry the EigenMPM sta
 from .cli import installInterruptibleRun as _installInterruptibleRun  # noqa: E402
 
 _installInterruptibleRun()  # Ctrl-C stops O.run(n, True) at a step boundary in any script
+
+from .engines import watchEngines as _watchEngines  # noqa: E402
+
+_watchEngines()  # (last: around the wrappers above) every change of the scene's engines is counted

@@ -10,9 +10,9 @@ the interpreter's code out of the caches, the import cost about 20 us per iterat
 doc/performance.md "Session 28").
 """
 import builtins
+import functools
 import itertools
 import math
-import operator
 import sys
 import warnings
 import weakref
@@ -33,8 +33,16 @@ _keys = itertools.count()
 # engines, whose state is saved; a plain dict, read without a Python-level call (a
 # WeakKeyDictionary's get is one), its entry removed when its engine goes.
 _attached = {}
-# The `dead` flag of an engine, read in C by map() (MpmEngine._syncPhysics).
-_dead = operator.attrgetter("dead")
+# What the engines of the scene are: a count that every way Python has to change them raises
+# (watchEngines): O.engines assigned, an engine's `dead` set (or any attribute through
+# updateAttrs), and the Omega methods that load, reset or switch the scene. While it stands,
+# MpmEngine._syncPhysics knows its attachments are current without reading O.engines (inside
+# O.run that read and the `dead` flags cost about 30 us per step, doc/performance.md
+# "Session 34").
+_enginesVersion = [0]
+# Omega's methods that replace, reset or switch the scene (and with it O.engines or O.iter).
+_SCENE_METHODS = ("load", "loadTmp", "reload", "reset", "resetAllScenes", "resetCurrentScene", "resetThisScene",
+                  "resetTime", "stringToScene", "switchScene", "switchToScene")
 _CALL = "_eigenmpm_engine"
 COMMAND_PREFIX = _CALL + "("
 # The commands of earlier versions (state._refuseOrphans recognises them in a loaded scene).
@@ -45,6 +53,12 @@ LEGACY_PREFIXES = ("import eigenmpm.engines as _m; _m._registry[",)
 # WeakValueDictionary's __getitem__ is one; inside O.run it runs cold, doc/performance.md
 # "Session 33"). An entry goes with its engine.
 _refs = {}
+
+
+@functools.lru_cache(maxsize=None)
+def _numThreads():
+    """O.numThreads (YADE's -j), fixed for the process: read once, not at every step."""
+    return O.numThreads
 
 
 def _act(key):
@@ -113,6 +127,56 @@ def _wrapReset():
 
 
 _wrapReset()
+
+
+def watchEngines():
+    """Makes every Python path that can change the scene's engines raise _enginesVersion: the
+    O.engines and Engine.dead setters, Serializable.updateAttrs, and Omega's scene methods
+    (_SCENE_METHODS), each wrapped once at class level around YADE's own (or the wrapper already
+    there: eigenmpm.state's load, this module's reset). The package calls it at import, after
+    its other wrappers."""
+    from yade.wrapper import Engine, Omega, Serializable
+
+    def bump():
+        _enginesVersion[0] += 1
+
+    def watchSetter(cls, name):
+        p = cls.__dict__[name]
+        if getattr(p.fset, "_eigenmpmWatch", False):
+            return
+
+        def fset(self, value):
+            try:
+                p.fset(self, value)
+            finally:
+                bump()
+
+        fset._eigenmpmWatch = True
+        setattr(cls, name, property(p.fget, fset, p.fdel, p.__doc__))
+
+    def watchMethod(cls, name):
+        original = getattr(cls, name)
+        if getattr(original, "_eigenmpmWatch", False):
+            return
+
+        def method(self, *args, **kwargs):
+            try:
+                return original(self, *args, **kwargs)
+            finally:
+                bump()
+
+        method._eigenmpmWatch = True
+        method.__name__, method.__doc__ = name, original.__doc__
+        for attr in ("_eigenmpmOriginal",):  # (what the reset wrapper finds YADE's reset by)
+            if hasattr(original, attr):
+                setattr(method, attr, getattr(original, attr))
+        setattr(cls, name, method)
+
+    watchSetter(Omega, "engines")
+    watchSetter(Engine, "dead")
+    watchMethod(Serializable, "updateAttrs")
+    for name in _SCENE_METHODS:
+        watchMethod(Omega, name)
 
 
 def _releaseLabel(engine):
@@ -651,19 +715,20 @@ class MpmEngine(PyRunner):
         attached one is detached.
 
         What is attached depends only on O.engines (which engines, in which order, which are
-        dead), on this engine's solver and on what it has attached: when none of these changed
-        since the last step, the attachments stand and only each stage's per-step part runs
-        (``beforeStep``: BodyContact reads the bodies). ``attach`` is idempotent apart from that
-        part. (Inside O.run, after the step has left the interpreter's code out of the caches,
-        the full test of every engine cost about 30 us per step, doc/performance.md "Session 28".)
-        Returns O.engines and the stages with an after-step part."""
-        engines = O.engines
-        key = (id(self.solver), len(self.physics), tuple(map(id, engines)), tuple(map(_dead, engines)))
+        dead), on this engine's solver and on what it has attached. The first two change only
+        through the paths watchEngines counts (_enginesVersion): while that count, the solver
+        and the attachments stand, O.engines is not read and only each stage's per-step part
+        runs (``beforeStep``: BodyContact reads the bodies). ``attach`` is idempotent apart from
+        that part. (Inside O.run, after the step has left the interpreter's code out of the
+        caches, reading O.engines and every engine's `dead` flag cost about 30 us per step,
+        doc/performance.md "Session 34".) Returns the stages with an after-step part."""
+        key = (_enginesVersion[0], id(self.solver), len(self.physics))
         known = _attached.get(id(self))
         if known is not None and known[1] == key and known[0]() is self:
             for e in known[2]:
                 e.beforeStep(self)
-            return engines, known[3]
+            return known[3]
+        engines = O.engines
         active = [e for e in engines if e is not self and callable(getattr(type(e), "attach", None))
                   and not e.dead and findEngine(e.engine) is self]
         for e in list(self.physics.values()):
@@ -671,12 +736,12 @@ class MpmEngine(PyRunner):
                 e.detach(self)
         for e in active:
             e.attach(self)
-        key = (id(self.solver), len(self.physics), key[2], key[3])
+        key = (_enginesVersion[0], id(self.solver), len(self.physics))
         me = id(self)
         known = _attached[me] = (weakref.ref(self, lambda _, me=me: _attached.pop(me, None)), key,
                                  [e for e in active if callable(getattr(type(e), "beforeStep", None))],
                                  [e for e in self.physics.values() if callable(getattr(type(e), "afterStep", None))])
-        return engines, known[3]
+        return known[3]
 
     def _action(self):
         # YADE's O.run thread has no Python thread state of its own: keep the one this call made,
@@ -686,7 +751,7 @@ class MpmEngine(PyRunner):
         # data out of the caches: each attribute read of YADE's objects costs microseconds here,
         # so each is read once. doc/performance.md, "Session 33".)
         _eigenmpm.keepThreadState()
-        engines, after = self._syncPhysics()
+        after = self._syncPhysics()
         solver = self.solver
         if not self._started:
             self._started = True
@@ -704,15 +769,15 @@ class MpmEngine(PyRunner):
                                "(load it with O.load/O.loadTmp after importing eigenmpm, or rebuild it)")
         self._lastIter = now
         t = O.time
-        solver.time = t
         for bc in self.bcs.values():
             bc._update(t)
-        threads = self.threads or O.numThreads
-        if solver.ranks > 1:
+        threads = self.threads or _numThreads()
+        if parallel.worldSize() > 1 and solver.ranks > 1:  # (a solver of several ranks runs under mpiexec)
             solver.setRebalance(float(self.rebalance), int(self.rebalancePeriod))
         try:
-            solver.step(O.dt, int(threads))
+            solver.stepAt(t, O.dt, int(threads))  # (solver.time = t, then the step)
         except Exception as err:
+            engines = O.engines
             for rec in self.recorders:
                 if any(rec is e for e in engines) and not rec.dead:
                     rec.onFailure(self, err)

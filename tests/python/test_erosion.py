@@ -261,6 +261,29 @@ def test_an_erosion_engine_stops_when_removed_or_dead_and_resumes_when_back(how)
     assert mpm.solver.erosion is er.core
 
 
+@pytest.mark.parametrize("how", ["dead", "assigned", "updateAttrs"])
+def test_an_erosion_engine_stopped_inside_a_run_is_detached_at_the_next_step(how):
+    """MpmEngine._syncPhysics does not read O.engines while nothing has changed it (the count of
+    engines.watchEngines): a change made by an engine inside O.run, through any of the paths,
+    still detaches the stage at the next step."""
+    mpm, er = pulled_plate()
+    seen = []
+
+    def probe():  # (after the MpmEngine's step of each iteration)
+        seen.append(mpm.solver.erosion is er.core)
+        if O.iter == 60:
+            if how == "dead":
+                er.dead = True
+            elif how == "assigned":
+                O.engines = [e for e in O.engines if e is not er]
+            else:
+                er.updateAttrs({"dead": True})
+
+    O.engines = [mpm, er, em.callEvery(probe)]
+    O.run(70, True)
+    assert len(seen) == 70 and all(seen[:61]) and not any(seen[61:])
+
+
 def test_two_erosion_engines_for_one_solver_are_refused():
     mpm, er = pulled_plate()
     O.engines = [mpm, er, em.EigenErosion(engine=mpm, Gc=1.0, kappaOverH=1.1)]
