@@ -107,7 +107,8 @@ def _wrapReset():
     was ever assigned to O.engines alive (one reference per assignment, and its label in
     builtins), so the engines cannot be freed; their heavy state (the solver, the erosion state)
     is released instead (``_release``). Released: the engines in O.engines at the reset, those
-    that stepped, and those of a scene that a load replaced (_sceneReplaced)."""
+    that stepped, those of a scene that a load replaced (_sceneReplaced), and those that worked
+    for a released MpmEngine."""
     from yade.wrapper import Omega
     original = getattr(Omega.reset, "_eigenmpmOriginal", Omega.reset)
 
@@ -117,6 +118,13 @@ def _wrapReset():
         ending = [e for e in list(_registry.values())
                   if hasattr(e, "_release") and (id(e) in scene or getattr(e, "_started", False)
                                                  or getattr(e, "_sceneEnded", False))]
+        # and those that worked for an MpmEngine that ends (an EigenErosion taken out of
+        # O.engines before the reset would otherwise keep its label taken)
+        solvers = {id(e) for e in ending if isinstance(e, MpmEngine)}
+        ending += [e for e in list(_registry.values())
+                   if hasattr(e, "_release") and not any(e is x for x in ending)
+                   and any(isinstance(m, MpmEngine) and id(m) in solvers
+                           for m in (getattr(e, "_mpm", None), getattr(e, "engine", None)))]
         original(self, *args, **kwargs)
         for e in ending:
             e._release()

@@ -71,3 +71,18 @@ def test_an_engine_outside_the_reset_scene_is_kept():
     O.dt = 0.5 * kept.criticalTimeStep()
     O.run(2, True)
     assert kept.solver.steps == 2
+
+
+def test_an_erosion_engine_taken_out_before_the_reset_ends_with_its_solver():
+    # Its MpmEngine ends with the scene, so it does too: its default label is free for the next
+    # scene's (plotData's keys carry it), and its state is released.
+    O.reset()
+    mpm, engines = scene()
+    erosion = engines[-1]
+    O.engines = engines[:-1]  # (taken out; the MpmEngine stays)
+    O.run(2, True)
+    O.reset()
+    with pytest.raises(RuntimeError, match="freed by O.reset"):
+        erosion.core.erodedCount
+    mpm2, engines2 = scene()
+    assert engines2[-1].label == erosion.label and f"{erosion.label}_Ef" in mpm2.plotData()
