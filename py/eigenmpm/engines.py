@@ -120,10 +120,10 @@ def _wrapReset():
                                                  or getattr(e, "_sceneEnded", False))]
         # and those that worked for an MpmEngine that ends (an EigenErosion taken out of
         # O.engines before the reset would otherwise keep its label taken)
-        solvers = {id(e) for e in ending if isinstance(e, MpmEngine)}
+        ends = {id(e) for e in ending}
         ending += [e for e in list(_registry.values())
-                   if hasattr(e, "_release") and not any(e is x for x in ending)
-                   and any(isinstance(m, MpmEngine) and id(m) in solvers
+                   if hasattr(e, "_release") and id(e) not in ends
+                   and any(isinstance(m, MpmEngine) and id(m) in ends
                            for m in (getattr(e, "_mpm", None), getattr(e, "engine", None)))]
         original(self, *args, **kwargs)
         for e in ending:
@@ -175,9 +175,8 @@ def watchEngines():
 
         method._eigenmpmWatch = True
         method.__name__, method.__doc__ = name, original.__doc__
-        for attr in ("_eigenmpmOriginal",):  # (what the reset wrapper finds YADE's reset by)
-            if hasattr(original, attr):
-                setattr(method, attr, getattr(original, attr))
+        if hasattr(original, "_eigenmpmOriginal"):  # (what the reset wrapper finds YADE's reset by)
+            method._eigenmpmOriginal = original._eigenmpmOriginal
         setattr(cls, name, method)
 
     watchSetter(Omega, "engines")
