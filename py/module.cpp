@@ -319,6 +319,92 @@ Eigen::Matrix3d toMat3(const bp::object& o, const char* what)
     return m;
 }
 
+/// The Python objects of the YADE spheres that Contact.addFreeSpheres reads at every step (each
+/// sphere's Body, State and Shape), kept from one step to the next so that the step reads only
+/// what changes (its position and radius, and for a sphere that touches a point its velocity,
+/// mass and flags), not the three objects again (three of the 14 calls of YADE's Python API per
+/// sphere, doc/contact.md "Session 35"). An entry is used only while it provably stands for the
+/// scene's body:
+/// - it is cached only if YADE hands back the same Python objects on every read (O.bodies[id],
+///   body.state and body.shape), as it does for objects made in Python (the body container's
+///   shared pointer then holds a reference to the Python object); objects made in C++ come back
+///   as new wrappers and are read at every step;
+/// - the reference count of each of the three objects is what it was when cached: the body
+///   container holds one reference to a body, a body one to its state and one to its shape, so
+///   a body erased or replaced (from Python or from C++), or a state or shape replaced, changes
+///   it; so does any other holder that comes or goes, which costs only a fresh read;
+/// - the count of Python calls that change O.bodies (eigenmpm.contact's watch of
+///   O.bodies.erase, replace, ...) is the one the entries were cached at, which also covers an
+///   erased body whose Python object someone took up at the same time.
+struct BodyCache {
+    struct Entry {
+        long id = -1;
+        bool cacheable = false;
+        bp::object body, state, shape;
+        Py_ssize_t refs[3] = {-1, -1, -1};  ///< -1: to be taken once the call's own references are gone
+        bool holds(long i) const
+        {
+            return cacheable && id == i && refs[0] == Py_REFCNT(body.ptr()) && refs[1] == Py_REFCNT(state.ptr()) &&
+                   refs[2] == Py_REFCNT(shape.ptr());
+        }
+    };
+    std::vector<Entry> entries;  ///< by position in the list of ids read
+    long version = -1;           ///< the count of O.bodies changes they were cached at
+
+    /// The entry of position k if it holds body `id`'s objects; null otherwise. Clears all on a
+    /// new version or a list of another length.
+    Entry* find(std::size_t n, long v, std::size_t k, long id)
+    {
+        if (v != version || entries.size() != n) {
+            entries.clear();
+            entries.resize(n);
+            version = v;
+        }
+        Entry& e = entries[k];
+        return e.holds(id) ? &e : nullptr;
+    }
+    /// Caches the objects just read for position k (the body `b` of id `idObject` in `bodies`) if
+    /// YADE hands back the same objects on a second read; their counts are taken by settle().
+    void store(std::size_t k, long id, const bp::object& bodies, const bp::object& idObject, const bp::object& b,
+               const bp::object& st, const bp::object& sh, PyObject* kState, PyObject* kShape)
+    {
+        Entry& e = entries[k];
+        if (e.id == id && !e.cacheable) return;  // (checked before: new wrappers at each read)
+        e = Entry();
+        e.id = id;
+        PyObject* again = PyObject_GetItem(bodies.ptr(), idObject.ptr());
+        if (!again) bp::throw_error_already_set();
+        const bp::object b2{bp::handle<>(again)};
+        e.cacheable = b2.ptr() == b.ptr() && attr(b, kState).ptr() == st.ptr() && attr(b, kShape).ptr() == sh.ptr();
+        if (e.cacheable) {
+            e.body = b;
+            e.state = st;
+            e.shape = sh;
+        }
+    }
+    /// Takes the reference counts of the entries cached in this call, once its own references
+    /// to them are gone.
+    void settle()
+    {
+        for (Entry& e : entries)
+            if (e.cacheable && e.refs[0] < 0) {
+                e.refs[0] = Py_REFCNT(e.body.ptr());
+                e.refs[1] = Py_REFCNT(e.state.ptr());
+                e.refs[2] = Py_REFCNT(e.shape.ptr());
+            }
+    }
+    static void expose()
+    {
+        bp::class_<BodyCache, std::shared_ptr<BodyCache>, boost::noncopyable>(
+            "BodyCache", "The YADE spheres' Python objects that Contact.addFreeSpheres keeps between steps.")
+            .add_property("cached", +[](const BodyCache& c) {
+                int n = 0;
+                for (const Entry& e : c.entries) n += e.cacheable && e.refs[0] >= 0;
+                return n;
+            }, "how many spheres' objects are held");
+    }
+};
+
 /// The contact stage (BodyContact.hpp). The Python engine (eigenmpm.contact) refills its bodies
 /// and shapes from YADE before each step and reads the forces back after it.
 template <int D> struct BindContact {
@@ -379,10 +465,15 @@ template <int D> struct BindContact {
     /// cost 9 of the 14 calls of YADE's Python API per sphere. Without friction a sphere centred
     /// in the model (z = 0 in 2D) is central (RigidBody::central): its angular velocity, inertia
     /// and torque are not read, and no moment is written back (applyForces), 4 calls fewer each.
+    /// With a BodyCache (`cache`, and `version`, the count of O.bodies changes made from Python)
+    /// each sphere's Body, State and Shape objects are kept between calls (BodyCache). With
+    /// readForces false the forces and moments in `forces` are known to be zero (nothing added
+    /// any since YADE's ForceResetter, BodyContact._forcesBefore) and are not read.
     /// Returns (ids added, in core order; ids left for the general path: clump members, fixed or
     /// blocked bodies, anisotropic inertia where it matters). An erased body (None) is skipped.
     static bp::tuple addFreeSpheres(C& c, bp::object bodies, bp::object ids, bp::object forces, bp::object gravity,
-                                    double dt, bp::object solver)
+                                    double dt, bp::object solver, bp::object cacheObject, long version,
+                                    bool readForces)
     {
         static PyObject* const kState = PyUnicode_InternFromString("state");
         static PyObject* const kShape = PyUnicode_InternFromString("shape");
@@ -397,6 +488,7 @@ template <int D> struct BindContact {
         static PyObject* const kAngVel = PyUnicode_InternFromString("angVel");
         const Eigen::Vector3d g = fastVec3(gravity, "gravity");
         const bp::object forceOf = forces.attr("f"), torqueOf = forces.attr("t");
+        BodyCache* cache = cacheObject.is_none() ? nullptr : &bp::extract<BodyCache&>(cacheObject)();
         // 1. Where each sphere is, and its radius.
         struct Read {
             bp::object id, body, state;
@@ -409,11 +501,20 @@ template <int D> struct BindContact {
         spheres.reserve(n);
         for (long k = 0; k < n; ++k) {
             const bp::object id(bp::handle<>(PySequence_GetItem(ids.ptr(), k)));
-            PyObject* item = PyObject_GetItem(bodies.ptr(), id.ptr());
-            if (!item) bp::throw_error_already_set();
-            const bp::object b{bp::handle<>(item)};
-            if (b.is_none()) continue;
-            PyObject* radius = PyObject_GetAttr(attr(b, kShape).ptr(), kRadius);
+            const long idValue = cache ? bp::extract<long>(id)() : -1;
+            const BodyCache::Entry* e = cache ? cache->find(n, version, k, idValue) : nullptr;
+            bp::object b, shape;
+            if (e) {
+                b = e->body;
+                shape = e->shape;
+            } else {
+                PyObject* item = PyObject_GetItem(bodies.ptr(), id.ptr());
+                if (!item) bp::throw_error_already_set();
+                b = bp::object(bp::handle<>(item));
+                if (b.is_none()) continue;
+                shape = attr(b, kShape);
+            }
+            PyObject* radius = PyObject_GetAttr(shape.ptr(), kRadius);
             if (!radius) {
                 if (!PyErr_ExceptionMatches(PyExc_AttributeError)) bp::throw_error_already_set();
                 PyErr_Clear();
@@ -423,7 +524,8 @@ template <int D> struct BindContact {
             RigidShape sh;
             sh.kind = RigidShape::sphere;
             sh.radius = bp::extract<double>(bp::object(bp::handle<>(radius)));
-            const bp::object st = attr(b, kState);
+            const bp::object st = e ? e->state : attr(b, kState);
+            if (cache && !e) cache->store(k, idValue, bodies, id, b, st, shape, kState, kShape);
             sh.a = fastVec3(attr(st, kPos), "position");
             read.push_back(Read{id, b, st, static_cast<int>(spheres.size())});
             spheres.push_back(sh);
@@ -453,13 +555,15 @@ template <int D> struct BindContact {
             RigidBody r;
             r.id = bp::extract<int>(id);
             r.centre = spheres[k].a;
-            r.velocity = fastVec3(attr(st, kVel), "velocity") + (fastVec3(callOne(forceOf, id), "force") / m + g) * dt;
+            const Eigen::Vector3d f = readForces ? fastVec3(callOne(forceOf, id), "force") : Eigen::Vector3d::Zero();
+            r.velocity = fastVec3(attr(st, kVel), "velocity") + (f / m + g) * dt;
             r.invMass = Eigen::Vector3d::Constant(1.0 / m);
             r.central = central;
             if (!central) {
                 const double i = 1.0 / I[0];
-                r.angularVelocity = fastVec3(attr(st, kAngVel), "angular velocity") +
-                                    fastVec3(callOne(torqueOf, id), "torque") * (dt * i);
+                const Eigen::Vector3d t =
+                    readForces ? fastVec3(callOne(torqueOf, id), "torque") : Eigen::Vector3d::Zero();
+                r.angularVelocity = fastVec3(attr(st, kAngVel), "angular velocity") + t * (dt * i);
                 r.invInertia = Eigen::Vector3d::Constant(i).asDiagonal();
             }
             c.bodies.push_back(r);
@@ -468,6 +572,8 @@ template <int D> struct BindContact {
             c.shapes.push_back(sh);
             added.append(id);
         }
+        read.clear();
+        if (cache) cache->settle();
         return bp::make_tuple(added, rest);
     }
     /// Adds the last step's force and moment of each body with a YADE id to `forces` (O.forces),
@@ -549,7 +655,9 @@ template <int D> struct BindContact {
             .def("addBody", &addBody, (bp::arg("centre"), bp::arg("velocity"), bp::arg("angularVelocity"),
                                        bp::arg("invMass"), bp::arg("invInertia"), bp::arg("id") = -1))
             .def("addFreeSpheres", &addFreeSpheres, (bp::arg("bodies"), bp::arg("ids"), bp::arg("forces"),
-                                                     bp::arg("gravity"), bp::arg("dt"), bp::arg("solver") = bp::object()))
+                                                     bp::arg("gravity"), bp::arg("dt"), bp::arg("solver") = bp::object(),
+                                                     bp::arg("cache") = bp::object(), bp::arg("version") = 0,
+                                                     bp::arg("readForces") = true))
             .def("applyForces", &applyForces, (bp::arg("forces")))
             .def("addSphere", &addSphere, (bp::arg("body"), bp::arg("centre"), bp::arg("radius")))
             .def("addWall", &addWall, (bp::arg("body"), bp::arg("point"), bp::arg("normal"), bp::arg("twoSided")))
@@ -1113,6 +1221,7 @@ BOOST_PYTHON_MODULE(EMP_MODULE_NAME)
     BindErosion<2>::expose("Erosion2");
     BindErosion<3>::expose("Erosion3");
     BindCrackFront::expose();
+    BodyCache::expose();
     BindContact<2>::expose("Contact2");
     BindContact<3>::expose("Contact3");
     // One class per configuration (Configurations.hpp), named Solver<D><Kernel name>, and the

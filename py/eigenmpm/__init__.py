@@ -43,3 +43,7 @@ _installInterruptibleRun()  # Ctrl-C stops O.run(n, True) at a step boundary in 
 from .engines import watchEngines as _watchEngines  # noqa: E402
 
 _watchEngines()  # (last: around the wrappers above) every change of the scene's engines is counted
+
+from .contact import watchBodies as _watchBodies  # noqa: E402
+
+_watchBodies()  # every Python change of O.bodies that erases, replaces or regroups bodies is counted

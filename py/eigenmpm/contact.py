@@ -12,11 +12,20 @@ import numpy as np
 from yade import O, PyRunner, Vector3
 
 from . import _eigenmpm
+from . import engines as _engines
 from .engines import ENGINE, _register, _Released, findEngine
 from .fracture import sameStage
 from .params import Param, apply, declare
 
 SHAPES = ("Sphere", "Wall", "Facet", "Box")
+# The count of Python calls that change O.bodies' bodies or a body's state or shape
+# (watchBodies): the spheres' objects kept between steps (_eigenmpm.BodyCache) are read again
+# after any.
+_bodiesVersion = [0]
+# The methods of O.bodies that erase, replace or regroup bodies (not append: a new body changes
+# no other; not the read-only ones).
+_BODY_CHANGES = ("clear", "erase", "replace", "insertAtId", "clump", "addToClump", "releaseFromClump",
+                 "replaceByClumps", "deleteClumpMember", "deleteClumpBody", "updateClumpProperties")
 _ZERO = (0.0, 0.0, 0.0)
 _ZERO3 = (_ZERO, _ZERO, _ZERO)
 
@@ -27,6 +36,23 @@ def _newton():
         if type(e).__name__ == "NewtonIntegrator":
             return i, e
     return None, None
+
+
+def _bumpBodies():
+    _bodiesVersion[0] += 1
+
+
+def watchBodies():
+    """Makes the methods of O.bodies that erase, replace or regroup bodies (_BODY_CHANGES), the
+    setters of a body's state and shape and Serializable.updateAttrs (which can set them) raise
+    _bodiesVersion, each wrapped once at class level (the package calls it at import)."""
+    from yade.wrapper import Body, BodyContainer, Serializable
+
+    for name in _BODY_CHANGES:
+        _engines.watchMethod(BodyContainer, name, _bumpBodies)
+    _engines.watchSetter(Body, "state", _bumpBodies)
+    _engines.watchSetter(Body, "shape", _bumpBodies)
+    _engines.watchMethod(Serializable, "updateAttrs", _bumpBodies)
 
 
 def _quatMatrix(q):
@@ -78,6 +104,9 @@ class BodyContact(PyRunner):
         self._mpm = None
         self._bodyIds = []  # YADE id of each core body, in core order (the dynamic body: a clump)
         self._selection = None  # (key, sphere ids, other ids) of the bodies that touch the points
+        self._cache = None  # the spheres' YADE objects kept between steps (_eigenmpm.BodyCache)
+        self._cleared = None  # (engines' version, MpmEngine id, whether a ForceResetter runs just before it)
+        self._inScene = None  # (engines' version, the MpmEngine) when it was last found in O.engines
         self.history = []  # (time, total force on the bodies (3), points in contact)
 
     # --- the stage --------------------------------------------------------------------------
@@ -122,9 +151,15 @@ class BodyContact(PyRunner):
         after its step)."""
         self.core.applyForces(O.forces)
 
+    def _restored(self):
+        """After eigenmpm.state restored this engine: what it kept of this process's objects
+        (YADE's spheres, the engines' count, the MpmEngine's id) is read again."""
+        self._cache = self._cleared = self._inScene = None
+
     def _release(self):
         self.core = _Released(f"the contact stage of BodyContact {self.label!r}")
         self._mpm, self._bodyIds, self.history, self._released = None, [], [], True
+        self._cache = self._cleared = self._inScene = None
 
     def _checkOrder(self, mpm):
         engines = list(O.engines)
@@ -179,7 +214,10 @@ class BodyContact(PyRunner):
         _, newton = _newton()
         gravity = Vector3(newton.gravity) if newton is not None else Vector3.Zero
         spheres, others = self._selected()
-        added, rest = core.addFreeSpheres(O.bodies, spheres, O.forces, gravity, dt, mpm.solver)
+        if self._cache is None:
+            self._cache = _eigenmpm.BodyCache()
+        added, rest = core.addFreeSpheres(O.bodies, spheres, O.forces, gravity, dt, mpm.solver, self._cache,
+                                          _bodiesVersion[0], self._forcesBefore(mpm))
         self._bodyIds = list(added)
         index = {}
         for i in list(rest) + others:
@@ -205,6 +243,18 @@ class BodyContact(PyRunner):
                 core.addFacet(k, v[0], v[1], v[2])
             else:
                 core.addBox(k, b.state.pos, shape.extents, _quatMatrix(b.state.ori))
+
+    def _forcesBefore(self, mpm):
+        """Whether O.forces may hold forces on the bodies when mpm steps: not when YADE's
+        ForceResetter (alive) runs just before it and no permanent force is set (all zero then,
+        as each step's velocity needs them: Contact.addFreeSpheres skips reading them)."""
+        key = (_engines._enginesVersion[0], id(mpm))
+        if self._cleared is None or self._cleared[0] != key:
+            engines = list(O.engines)
+            where = next((i for i, e in enumerate(engines) if e is mpm), 0)
+            before = engines[where - 1] if where > 0 else None
+            self._cleared = (key, type(before).__name__ == "ForceResetter" and not before.dead)
+        return not self._cleared[1] or O.forces.getPermForceUsed()
 
     def _addBody(self, b, gravity, dt):
         s = b.state
@@ -244,12 +294,18 @@ class BodyContact(PyRunner):
 
     # --- engine ------------------------------------------------------------------------------
     def _action(self):
-        mpm = findEngine(self.engine)
-        if not any(mpm is e for e in O.engines):
-            raise ValueError(f"EigenMPM: engine = MpmEngine {mpm.label!r} is invalid; allowed: an MpmEngine in "
-                             f"O.engines (BodyContact {self.label!r} acts only on an engine of the scene)")
-        if self.core is not None and O.iter % self.iterPeriod == 0:
-            self.history.append((mpm.solver.time, tuple(self.totalForce()), self.core.pointsInContact))
+        # (YADE runs this at every iteration, cold after the step: O.engines is read only after a
+        # change of the engines, engines._enginesVersion)
+        key = _engines._enginesVersion[0]
+        if self._inScene is None or self._inScene[0] != key:
+            mpm = findEngine(self.engine)
+            if not any(mpm is e for e in O.engines):
+                raise ValueError(f"EigenMPM: engine = MpmEngine {mpm.label!r} is invalid; allowed: an MpmEngine "
+                                 f"in O.engines (BodyContact {self.label!r} acts only on an engine of the scene)")
+            self._inScene = (key, mpm)
+        core = self.core
+        if core is not None and O.iter % self.iterPeriod == 0:
+            self.history.append((self._inScene[1].solver.time, core.totalForce, core.pointsInContact))
 
     # --- diagnostics -------------------------------------------------------------------------
     def force(self, bodyId):

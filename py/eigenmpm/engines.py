@@ -137,6 +137,54 @@ def _wrapReset():
 _wrapReset()
 
 
+def watchMethod(cls, name, bump):
+    """Wraps method `name` of class `cls` once, at class level, so that every call of it calls
+    bump() afterwards (also when it raises); a method already wrapped calls this bump too."""
+    original = getattr(cls, name)
+    bumps = getattr(original, "_eigenmpmBumps", None)
+    if bumps is not None:
+        if bump not in bumps:
+            bumps.append(bump)
+        return
+    bumps = [bump]
+
+    def method(self, *args, **kwargs):
+        try:
+            return original(self, *args, **kwargs)
+        finally:
+            for b in bumps:
+                b()
+
+    method._eigenmpmBumps = bumps
+    method.__name__, method.__doc__, method.__wrapped__ = name, original.__doc__, original
+    if hasattr(original, "_eigenmpmOriginal"):  # (what the reset wrapper finds YADE's reset by)
+        method._eigenmpmOriginal = original._eigenmpmOriginal
+    setattr(cls, name, method)
+
+
+def watchSetter(cls, name, bump):
+    """Wraps the setter of property `name` of class `cls` once, at class level, so that every
+    assignment calls bump() afterwards (also when it raises); a setter already wrapped calls this
+    bump too."""
+    p = cls.__dict__[name]
+    bumps = getattr(p.fset, "_eigenmpmBumps", None)
+    if bumps is not None:
+        if bump not in bumps:
+            bumps.append(bump)
+        return
+    bumps = [bump]
+
+    def fset(self, value):
+        try:
+            p.fset(self, value)
+        finally:
+            for b in bumps:
+                b()
+
+    fset._eigenmpmBumps, fset.__wrapped__ = bumps, p.fset
+    setattr(cls, name, property(p.fget, fset, p.fdel, p.__doc__))
+
+
 def watchEngines():
     """Makes every Python path that can change the scene's engines raise _enginesVersion: the
     O.engines and Engine.dead setters, Serializable.updateAttrs, and Omega's scene methods
@@ -148,42 +196,11 @@ def watchEngines():
     def bump():
         _enginesVersion[0] += 1
 
-    def watchSetter(cls, name):
-        p = cls.__dict__[name]
-        if getattr(p.fset, "_eigenmpmWatch", False):
-            return
-
-        def fset(self, value):
-            try:
-                p.fset(self, value)
-            finally:
-                bump()
-
-        fset._eigenmpmWatch = True
-        setattr(cls, name, property(p.fget, fset, p.fdel, p.__doc__))
-
-    def watchMethod(cls, name):
-        original = getattr(cls, name)
-        if getattr(original, "_eigenmpmWatch", False):
-            return
-
-        def method(self, *args, **kwargs):
-            try:
-                return original(self, *args, **kwargs)
-            finally:
-                bump()
-
-        method._eigenmpmWatch = True
-        method.__name__, method.__doc__ = name, original.__doc__
-        if hasattr(original, "_eigenmpmOriginal"):  # (what the reset wrapper finds YADE's reset by)
-            method._eigenmpmOriginal = original._eigenmpmOriginal
-        setattr(cls, name, method)
-
-    watchSetter(Omega, "engines")
-    watchSetter(Engine, "dead")
-    watchMethod(Serializable, "updateAttrs")
+    watchSetter(Omega, "engines", bump)
+    watchSetter(Engine, "dead", bump)
+    watchMethod(Serializable, "updateAttrs", bump)
     for name in _SCENE_METHODS:
-        watchMethod(Omega, name)
+        watchMethod(Omega, name, bump)
 
 
 def _releaseLabel(engine):

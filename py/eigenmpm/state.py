@@ -101,6 +101,8 @@ class _Pickler(pickle.Pickler):
             raise StateError("EigenMPM: cannot save an erosion stage that no saved solver holds")
         if _isContact(obj):  # refilled from O.bodies before every step: only its setting matters
             return ("contact", (type(obj) is _eigenmpm.Contact2, obj.friction))
+        if type(obj) is _eigenmpm.BodyCache:  # YADE's objects of this process: read again after a load
+            return ("bodycache", None)
         return None
 
 
@@ -123,6 +125,8 @@ class _Unpickler(pickle.Unpickler):
         if kind == "contact":
             planar, friction = k
             return (_eigenmpm.Contact2 if planar else _eigenmpm.Contact3)(friction=friction)
+        if kind == "bodycache":
+            return None
         raise StateError(f"EigenMPM: the snapshot refers to an unknown object {pid!r}")
 
 

@@ -9,7 +9,7 @@ import subprocess
 import numpy as np
 import pytest
 from yade import O, pack, utils
-from yade.wrapper import Box, ForceResetter, FrictMat, NewtonIntegrator
+from yade.wrapper import Box, ForceEngine, ForceResetter, FrictMat, NewtonIntegrator, Sphere, State
 
 import eigenmpm as em
 
@@ -375,6 +375,15 @@ def spheres_on_a_block(n=24):
     return mpm, contact, row, far
 
 
+def plainRead(plain):
+    """Contact.addFreeSpheres as it reads YADE without shortcuts: every sphere in full (no solver
+    to test which touch a point), its objects read again at every step (no BodyCache), the forces
+    read from O.forces."""
+    def read(core, bodies, ids, forces, gravity, dt, solver=None, cache=None, version=0, readForces=True):
+        return plain(core, bodies, ids, forces, gravity, dt)
+    return read
+
+
 def test_spheres_that_touch_no_point_are_skipped_without_changing_the_results(monkeypatch):
     """Contact.addFreeSpheres reads the velocity, mass and forces only of the spheres that touch
     a point (doc/contact.md, "Cost"): the run is bitwise the one that reads every sphere, also
@@ -410,15 +419,67 @@ def test_spheres_that_touch_no_point_are_skipped_without_changing_the_results(mo
 
     skipped = run(True)
     plain = em._eigenmpm.Contact2.addFreeSpheres
-    monkeypatch.setattr(em._eigenmpm.Contact2, "addFreeSpheres",
-                        lambda core, bodies, ids, forces, gravity, dt, solver=None:
-                        plain(core, bodies, ids, forces, gravity, dt))  # no solver: every sphere read
+    monkeypatch.setattr(em._eigenmpm.Contact2, "addFreeSpheres", plainRead(plain))  # every sphere read
     every = run(False)
     for a, b in zip(skipped[:4], every[:4]):
         assert np.array_equal(a, b)
     assert np.abs(skipped[0][:, 1]).max() > 0 and np.abs(skipped[0][:, 3]).max() > 0  # forces, work
     # Skipping happened: fewer bodies in the stage than the plain read, from the second step on.
     assert all(s < e for s, e in zip(skipped[4][1:], every[4][1:]))
+
+
+def test_the_spheres_kept_between_steps_follow_what_yade_changes(monkeypatch):
+    """Contact.addFreeSpheres keeps each sphere's Body, State and Shape objects from one step to
+    the next (BodyCache) and does not read O.forces while YADE's ForceResetter runs just before
+    the MpmEngine (doc/contact.md, "Session 35"): the run is bitwise the plain read's, also when
+    a sphere that touches the block is erased or given a new shape unseen by the count of
+    O.bodies' changes (as YADE's C++ would: the reference counts see it), a script erases one or
+    gives one a new State while keeping the old object (the count sees it, the reference counts do
+    not), or an engine adds forces before the MpmEngine."""
+    held = []
+
+    def run(cached):
+        mpm, contact, row, far = spheres_on_a_block()
+        for i in row:  # onto the block: they touch it from about step 25 to 65
+            O.bodies[i].state.vel = (0, -3.0, 0)
+        out = []
+        for step in range(80):
+            if step == 28 and cached:  # the free spheres' objects are kept (those made in Python)
+                assert contact._cache.cached == len(contact._selected()[0])
+                assert not contact._forcesBefore(mpm)
+            if step == 30:
+                assert row[9] in contact._bodyIds and row[12] in contact._bodyIds
+                type(O.bodies).erase.__wrapped__(O.bodies, row[9])  # YADE's own erase
+            if step == 35:
+                held.append(O.bodies[row[12]])  # its object lives on, its count unchanged
+                O.bodies.erase(row[12])
+            if step == 45:
+                assert row[16] in contact._bodyIds
+                old = O.bodies[row[16]].state
+                new = State()
+                new.pos, new.vel, new.mass, new.inertia = old.pos, old.vel, old.mass, old.inertia
+                O.bodies[row[16]].state = new
+            if step == 50:
+                assert row[14] in contact._bodyIds or row[19] in contact._bodyIds
+                push = ForceEngine(ids=[row[14], row[19]], force=(0, -30.0, 0))
+                O.engines = [O.engines[0], push] + list(O.engines[1:])
+            if step == 51 and cached:
+                assert contact._forcesBefore(mpm)
+            if step == 55:  # a new shape, unseen by the count: the reference counts see it
+                assert row[11] in contact._bodyIds
+                type(O.bodies[row[11]]).shape.fset.__wrapped__(O.bodies[row[11]], Sphere(radius=0.0009))
+            O.run(1, True)
+            out.append(np.concatenate([contact.totalForce(), [contact.core.work, contact.pointsInContact()]]))
+        assert O.bodies[row[9]] is None and O.bodies[row[12]] is None
+        states = [list(b.state.pos) + list(b.state.vel) for b in O.bodies if b is not None]
+        return np.array(out), np.array(states), mpm.solver.positions().copy(), mpm.solver.velocities().copy()
+
+    kept = run(True)
+    monkeypatch.setattr(em._eigenmpm.Contact2, "addFreeSpheres", plainRead(em._eigenmpm.Contact2.addFreeSpheres))
+    plain = run(False)
+    for a, b in zip(kept, plain):
+        assert np.array_equal(a, b)
+    assert np.abs(kept[0][:, 1]).max() > 0
 
 
 @pytest.mark.parametrize("dim", [2, 3])
@@ -475,18 +536,20 @@ def test_frictionless_spheres_are_central_and_agree_with_the_general_path(dim, m
         monkeypatch.setattr(ForceContainer, name, counted(name, "method"))
     fast = run()
     monkeypatch.undo()
-    # Only the off-plane sphere (2D) is read in full and gets moments; the NewtonIntegrator reads in C++.
+    # Only the off-plane sphere (2D) is read in full and gets moments; the NewtonIntegrator reads in
+    # C++. (Its torque is not read: the ForceResetter runs just before the MpmEngine, so O.forces
+    # holds none, BodyContact._forcesBefore.)
     if dim == 3:
         assert read == {"angVel": 0, "inertia": 0, "t": 0, "addT": 0}
     else:
-        assert 0 < read["angVel"] <= 150 and 0 < read["t"] <= 150 and 0 < read["addT"] <= 150
+        assert 0 < read["angVel"] <= 150 and read["t"] == 0 and 0 < read["addT"] <= 150
     initial = np.array([(10.0 * k, -20.0, 300.0 + 50 * k) for k in range(len(fast[1]))])
     central = slice(0, 2)  # in 2D the third sphere is centred off the plane
     assert np.array_equal(fast[1][central], initial[central])
     if dim == 2:
         assert np.abs(fast[1][2] - initial[2]).max() > 1e-3  # the off-plane sphere was turned
     monkeypatch.setattr(getattr(em._eigenmpm, f"Contact{dim}"), "addFreeSpheres",
-                        lambda core, bodies, ids, forces, gravity, dt, solver=None: ([], list(ids)))
+                        lambda core, bodies, ids, forces, gravity, dt, *rest: ([], list(ids)))
     general = run()
     for a, b in ((fast[0], general[0]), (fast[2], general[2])):
         assert np.allclose(a, b, rtol=0, atol=1e-12 * np.abs(b).max())
