@@ -334,14 +334,21 @@ Eigen::Matrix3d toMat3(const bp::object& o, const char* what)
 ///   a body erased or replaced (from Python or from C++), or a state or shape replaced, changes
 ///   it; so does any other holder that comes or goes, which costs only a fresh read;
 /// - the count of Python calls that change O.bodies (eigenmpm.contact's watch of
-///   O.bodies.erase, replace, ...) is the one the entries were cached at, which also covers an
-///   erased body whose Python object someone took up at the same time.
+///   O.bodies.erase, replace, ..., of the setters of Body.state, Body.shape, Body.dynamic and
+///   State.blockedDOFs) is the one the entries were cached at, which also covers an erased body
+///   whose Python object someone took up at the same time.
+/// An entry also keeps the sphere's flags (Entry::flags): whether it is a clump member, dynamic,
+/// blocked. YADE's C++ engines do not change them during a run (doc/contact.md, "Session 35").
 struct BodyCache {
     struct Entry {
         long id = -1;
         bool cacheable = false;
         bp::object body, state, shape;
         Py_ssize_t refs[3] = {-1, -1, -1};  ///< -1: to be taken once the call's own references are gone
+        /// Whether the body is a clump member, is not dynamic, has blocked DOFs (bits 1, 2, 4), read
+        /// once while the entry stands (they change through the counted Python paths: clump
+        /// methods of O.bodies, the setters of Body.dynamic and State.blockedDOFs); -1: not read.
+        int flags = -1;
         bool holds(long i) const
         {
             return cacheable && id == i && refs[0] == Py_REFCNT(body.ptr()) && refs[1] == Py_REFCNT(state.ptr()) &&
@@ -364,23 +371,39 @@ struct BodyCache {
         return e.holds(id) ? &e : nullptr;
     }
     /// Caches the objects just read for position k (the body `b` of id `idObject` in `bodies`) if
-    /// YADE hands back the same objects on a second read; their counts are taken by settle().
-    void store(std::size_t k, long id, const bp::object& bodies, const bp::object& idObject, const bp::object& b,
-               const bp::object& st, const bp::object& sh, PyObject* kState, PyObject* kShape)
+    /// YADE hands back the same objects on a second read (returns the entry; null otherwise);
+    /// their counts are taken by settle().
+    Entry* store(std::size_t k, long id, const bp::object& bodies, const bp::object& idObject, const bp::object& b,
+                 const bp::object& st, const bp::object& sh, PyObject* kState, PyObject* kShape)
     {
         Entry& e = entries[k];
-        if (e.id == id && !e.cacheable) return;  // (checked before: new wrappers at each read)
+        if (e.id == id && !e.cacheable) return nullptr;  // (checked before: new wrappers at each read)
         e = Entry();
         e.id = id;
         PyObject* again = PyObject_GetItem(bodies.ptr(), idObject.ptr());
         if (!again) bp::throw_error_already_set();
         const bp::object b2{bp::handle<>(again)};
         e.cacheable = b2.ptr() == b.ptr() && attr(b, kState).ptr() == st.ptr() && attr(b, kShape).ptr() == sh.ptr();
-        if (e.cacheable) {
-            e.body = b;
-            e.state = st;
-            e.shape = sh;
-        }
+        if (!e.cacheable) return nullptr;
+        e.body = b;
+        e.state = st;
+        e.shape = sh;
+        return &e;
+    }
+    /// How far ahead prefetch() asks for an entry's objects: after a step they lie beyond the
+    /// caches, and each sphere's reads, one after the other, wait for them.
+    static constexpr long ahead = 6;
+    /// Asks the processor for the objects of position k (the id in `ids`, a list, and the
+    /// entry's Body, State and Shape), if the entries are those of a list of n ids.
+    void prefetch(PyObject* ids, std::size_t n, long k) const
+    {
+        if (k >= static_cast<long>(n) || entries.size() != n) return;
+        if (PyList_CheckExact(ids)) __builtin_prefetch(PyList_GET_ITEM(ids, k));
+        const Entry& e = entries[k];
+        if (!e.cacheable) return;
+        __builtin_prefetch(e.body.ptr());
+        __builtin_prefetch(e.state.ptr());
+        __builtin_prefetch(e.shape.ptr());
     }
     /// Takes the reference counts of the entries cached in this call, once its own references
     /// to them are gone.
@@ -493,6 +516,7 @@ template <int D> struct BindContact {
         struct Read {
             bp::object id, body, state;
             int sphere;  ///< index in `spheres`; -1: its shape has no radius (changed since the selection)
+            BodyCache::Entry* entry;  ///< its cached objects, or null
         };
         std::vector<Read> read;
         std::vector<RigidShape> spheres;
@@ -500,9 +524,10 @@ template <int D> struct BindContact {
         read.reserve(n);
         spheres.reserve(n);
         for (long k = 0; k < n; ++k) {
+            if (cache) cache->prefetch(ids.ptr(), n, k + BodyCache::ahead);
             const bp::object id(bp::handle<>(PySequence_GetItem(ids.ptr(), k)));
             const long idValue = cache ? bp::extract<long>(id)() : -1;
-            const BodyCache::Entry* e = cache ? cache->find(n, version, k, idValue) : nullptr;
+            BodyCache::Entry* e = cache ? cache->find(n, version, k, idValue) : nullptr;
             bp::object b, shape;
             if (e) {
                 b = e->body;
@@ -518,16 +543,16 @@ template <int D> struct BindContact {
             if (!radius) {
                 if (!PyErr_ExceptionMatches(PyExc_AttributeError)) bp::throw_error_already_set();
                 PyErr_Clear();
-                read.push_back(Read{id, b, bp::object(), -1});
+                read.push_back(Read{id, b, bp::object(), -1, nullptr});
                 continue;
             }
             RigidShape sh;
             sh.kind = RigidShape::sphere;
             sh.radius = bp::extract<double>(bp::object(bp::handle<>(radius)));
             const bp::object st = e ? e->state : attr(b, kState);
-            if (cache && !e) cache->store(k, idValue, bodies, id, b, st, shape, kState, kShape);
+            if (cache && !e) e = cache->store(k, idValue, bodies, id, b, st, shape, kState, kShape);
             sh.a = fastVec3(attr(st, kPos), "position");
-            read.push_back(Read{id, b, st, static_cast<int>(spheres.size())});
+            read.push_back(Read{id, b, st, static_cast<int>(spheres.size()), e});
             spheres.push_back(sh);
         }
         // 2. Which of them touch a point (all of them without a solver that has stepped).
@@ -538,7 +563,7 @@ template <int D> struct BindContact {
         if (pointsOf(solver, points, grid, reach)) c.touching(*grid, *points, reach, spheres, touched);
         // 3. Those as bodies: the free ones here, the others by the general path.
         bp::list added, rest;
-        for (const auto& [id, b, st, k] : read) {
+        for (const auto& [id, b, st, k, e] : read) {
             if (k < 0) {
                 rest.append(id);
                 continue;
@@ -547,8 +572,13 @@ template <int D> struct BindContact {
             const double m = bp::extract<double>(attr(st, kMass));
             const bool central = c.friction == 0 && (D == 3 || spheres[k].a[2] == 0);
             const Eigen::Vector3d I = central ? Eigen::Vector3d::Ones() : fastVec3(attr(st, kInertia), "inertia");
-            if (bp::extract<bool>(attr(b, kMember))() || !bp::extract<bool>(attr(b, kDynamic))() || !(m > 0) ||
-                bp::len(attr(st, kBlocked)) != 0 || !(I[0] == I[1] && I[1] == I[2] && I[0] > 0)) {
+            int flags = e ? e->flags : -1;
+            if (flags < 0) {
+                flags = (bp::extract<bool>(attr(b, kMember))() ? 1 : 0) | (bp::extract<bool>(attr(b, kDynamic))() ? 0 : 2) |
+                        (bp::len(attr(st, kBlocked)) != 0 ? 4 : 0);
+                if (e) e->flags = flags;
+            }
+            if (flags != 0 || !(m > 0) || !(I[0] == I[1] && I[1] == I[2] && I[0] > 0)) {
                 rest.append(id);
                 continue;
             }

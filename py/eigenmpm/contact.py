@@ -18,9 +18,9 @@ from .fracture import sameStage
 from .params import Param, apply, declare
 
 SHAPES = ("Sphere", "Wall", "Facet", "Box")
-# The count of Python calls that change O.bodies' bodies or a body's state or shape
-# (watchBodies): the spheres' objects kept between steps (_eigenmpm.BodyCache) are read again
-# after any.
+# The count of Python calls that change O.bodies' bodies, a body's state, shape or dynamic flag
+# or a state's blocked DOFs (watchBodies): the spheres' objects and flags kept between steps
+# (_eigenmpm.BodyCache) are read again after any.
 _bodiesVersion = [0]
 # The methods of O.bodies that erase, replace or regroup bodies (not append: a new body changes
 # no other; not the read-only ones).
@@ -44,14 +44,17 @@ def _bumpBodies():
 
 def watchBodies():
     """Makes the methods of O.bodies that erase, replace or regroup bodies (_BODY_CHANGES), the
-    setters of a body's state and shape and Serializable.updateAttrs (which can set them) raise
-    _bodiesVersion, each wrapped once at class level (the package calls it at import)."""
-    from yade.wrapper import Body, BodyContainer, Serializable
+    setters of a body's state, shape and dynamic flag and of a state's blocked DOFs, and
+    Serializable.updateAttrs (which can set them) raise _bodiesVersion, each wrapped once at class
+    level (the package calls it at import)."""
+    from yade.wrapper import Body, BodyContainer, Serializable, State
 
     for name in _BODY_CHANGES:
         _engines.watchMethod(BodyContainer, name, _bumpBodies)
     _engines.watchSetter(Body, "state", _bumpBodies)
     _engines.watchSetter(Body, "shape", _bumpBodies)
+    _engines.watchSetter(Body, "dynamic", _bumpBodies)
+    _engines.watchSetter(State, "blockedDOFs", _bumpBodies)
     _engines.watchMethod(Serializable, "updateAttrs", _bumpBodies)
 
 

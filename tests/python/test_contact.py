@@ -435,7 +435,8 @@ def test_the_spheres_kept_between_steps_follow_what_yade_changes(monkeypatch):
     a sphere that touches the block is erased or given a new shape unseen by the count of
     O.bodies' changes (as YADE's C++ would: the reference counts see it), a script erases one or
     gives one a new State while keeping the old object (the count sees it, the reference counts do
-    not), or an engine adds forces before the MpmEngine."""
+    not), blocks one or fixes one (the count sees it: their flags are kept with their objects), or
+    an engine adds forces before the MpmEngine."""
     held = []
 
     def run(cached):
@@ -468,6 +469,15 @@ def test_the_spheres_kept_between_steps_follow_what_yade_changes(monkeypatch):
             if step == 55:  # a new shape, unseen by the count: the reference counts see it
                 assert row[11] in contact._bodyIds
                 type(O.bodies[row[11]]).shape.fset.__wrapped__(O.bodies[row[11]], Sphere(radius=0.0009))
+            if step in (57, 59):  # the flags kept with the objects are read again after a counted change
+                pushed = [i for i in row if O.bodies[i] is not None and O.bodies[i].dynamic
+                          and not O.bodies[i].state.blockedDOFs and np.linalg.norm(contact.force(i)) > 0]
+                assert pushed
+                if step == 57:  # a kinematic impactor now (YADE zeroes its velocity as it fixes it)
+                    O.bodies[pushed[0]].dynamic = False
+                    O.bodies[pushed[0]].state.vel = (0, -3.0, 0)
+                else:
+                    O.bodies[pushed[0]].state.blockedDOFs = "y"
             O.run(1, True)
             out.append(np.concatenate([contact.totalForce(), [contact.core.work, contact.pointsInContact()]]))
         assert O.bodies[row[9]] is None and O.bodies[row[12]] is None
