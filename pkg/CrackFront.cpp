@@ -185,4 +185,24 @@ std::vector<char> fartherWithin(const double* xm, const double* r, long nm, cons
     return farther;
 }
 
+bool mergedTips(const double* xr, const double* rr, const std::vector<char>& farther, long nr, double R2,
+                std::vector<long>& tips)
+{
+    std::vector<long> order;
+    for (long i = 0; i < nr; ++i)
+        if (!farther[i]) {
+            if (std::isnan(rr[i])) return false;
+            order.push_back(i);
+        }
+    std::stable_sort(order.begin(), order.end(), [&](long a, long b) { return rr[a] > rr[b]; });
+    const std::size_t first = tips.size();
+    for (const long i : order) {
+        bool far = true;
+        for (std::size_t k = first; far && k < tips.size(); ++k)
+            far = squaredDistance(xr + 3 * i, xr + 3 * tips[k]) > R2;
+        if (far) tips.push_back(i);
+    }
+    return true;
+}
+
 }  // namespace emp::crackfront

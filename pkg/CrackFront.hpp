@@ -28,4 +28,14 @@ std::vector<char> mainCrack(const double* x, long n, const double* origin, doubl
 std::vector<char> fartherWithin(const double* xm, const double* r, long nm, const double* xr, const double* rr,
                                 long nr, double R, double R2);
 
+/// The tips among the nr recent points xr (squared distances rr from the origin; farther[i]:
+/// it has a farther neighbour, fartherWithin): those without a farther neighbour, from the
+/// farthest (of two at the same distance, the first row first: numpy's stable argsort of -rr),
+/// each kept unless a tip kept before lies within the squared distance R2 of it (|x - t|^2 > R2
+/// to be kept). Appends their row indices to `tips` and returns true; returns false (tips
+/// untouched) when a candidate's distance is NaN (the caller's numpy merge orders those,
+/// EigenErosion._mergedTips).
+bool mergedTips(const double* xr, const double* rr, const std::vector<char>& farther, long nr, double R2,
+                std::vector<long>& tips);
+
 }  // namespace emp::crackfront

@@ -297,8 +297,36 @@ struct BindCrackFront {
         const std::vector<double> b = readArray(xr, nr, 3, "xr"), rb = readArray(rr, nr, 1, "rr");
         return mask(crackfront::fartherWithin(a.data(), ra.data(), nm, b.data(), rb.data(), nr, R, R2));
     }
+    /// The rows `rows` of x (rows of 3) as a list of 3-lists of floats.
+    static bp::list rowLists(const double* x, const std::vector<long>& rows)
+    {
+        bp::list out;
+        for (const long i : rows) {
+            bp::list row;
+            for (int d = 0; d < 3; ++d) row.append(x[3 * i + d]);
+            out.append(row);
+        }
+        return out;
+    }
+    static bp::object mergedTips(const np::ndarray& xr, const np::ndarray& rr, const np::ndarray& farther, double R2)
+    {
+        const long nr = rowsOf(xr, "xr");
+        const std::vector<double> b = readArray(xr, nr, 3, "xr"), rb = readArray(rr, nr, 1, "rr");
+        require(farther.get_nd() == 1 && farther.shape(0) == nr, "farther (length)", farther.shape(0),
+                "one flag per row of xr");
+        std::vector<char> f(nr);
+        for (long i = 0; i < nr; ++i) f[i] = bp::extract<bool>(farther[i]);
+        std::vector<long> rows;
+        if (!crackfront::mergedTips(b.data(), rb.data(), f, nr, R2, rows)) return bp::object();
+        return rowLists(b.data(), rows);
+    }
     static void expose()
     {
+        bp::def("crackMergedTips", &mergedTips, (bp::arg("xr"), bp::arg("rr"), bp::arg("farther"), bp::arg("R2")),
+                "The tips among the recent points xr (n x 3; rr their squared distances from the origin; "
+                "farther: whether each has a farther neighbour): the rows without one, from the farthest (at "
+                "equal distances the first row first), each kept unless a kept one lies within squared distance "
+                "R2, as 3-lists, as EigenErosion._mergedTips; None when a distance is NaN.");
         bp::def("crackMain", &mainCrack, (bp::arg("x"), bp::arg("origin"), bp::arg("R")),
                 "Which points x (n x 3) belong to the crack grown from origin: those whose cells of size R "
                 "(floor(x / R)) connect, through cells sharing a face, an edge or a corner, to the cell of the "
@@ -807,12 +835,14 @@ template <class Sv> struct Bind {
     /// steps, here in one call (a record follows a step, when the interpreter runs cold). The eroded
     /// points of `erosion`'s events, at their positions now (coordinate `axis` set to 0 when axis >= 0:
     /// throughAxis), form the main crack grown from `origin` (crackfront::mainCrack, cells of size R).
-    /// Returns (front, xr, rr, farther): the largest distance of a main-crack point from the origin
-    /// (0 before the first event); the rows of the main-crack points eroded at or after `since`,
-    /// their squared distances from the origin (numpy's row sums: ((d0^2 + d1^2) + d2^2)), and
-    /// whether a main-crack point within squared distance R2 of each lies farther from the origin
-    /// (crackfront::fartherWithin). The same operations on the same numbers as the numpy steps
-    /// (test_erosion.py compares the records of both bit for bit).
+    /// Returns (front, tips, xr, rr, farther): the largest distance of a main-crack point from the
+    /// origin (0 before the first event); the tips as 3-lists (crackfront::mergedTips), or None
+    /// when a candidate's distance is NaN, and then (else None) the rows of the
+    /// main-crack points eroded at or after `since`, their squared distances from the origin
+    /// (numpy's row sums: ((d0^2 + d1^2) + d2^2)), and whether a main-crack point within squared
+    /// distance R2 of each lies farther from the origin (crackfront::fartherWithin), for the
+    /// Python merge. The same operations on the same numbers as the numpy steps (test_erosion.py
+    /// compares the records of both bit for bit).
     static bp::tuple crackRecord(const Sv& s, const EigenErosion<D>& erosion, bp::object origin, int axis, double since,
                                  double R, double R2)
     {
@@ -821,7 +851,7 @@ template <class Sv> struct Bind {
                 "0 <= R2 <= R^2");
         const auto& ev = erosion.events();
         const long n = static_cast<long>(ev.size()), points = static_cast<long>(s.points().size());
-        if (n == 0) return bp::make_tuple(0.0, zeros(0, 3), zeros(0, 0), BindCrackFront::mask({}));
+        if (n == 0) return bp::make_tuple(0.0, bp::list(), bp::object(), bp::object(), bp::object());
         std::vector<double> x(3 * n, 0.0);
         for (long k = 0; k < n; ++k) {
             const long p = ev[k].point;
@@ -847,10 +877,14 @@ template <class Sv> struct Bind {
         }
         const long nm = static_cast<long>(r.size()), nr = static_cast<long>(rr.size());
         const std::vector<char> farther = crackfront::fartherWithin(xm.data(), r.data(), nm, xr.data(), rr.data(), nr, R, R2);
+        std::vector<long> tipRows;
+        if (crackfront::mergedTips(xr.data(), rr.data(), farther, nr, R2, tipRows))
+            return bp::make_tuple(std::sqrt(largest), BindCrackFront::rowLists(xr.data(), tipRows), bp::object(),
+                                  bp::object(), bp::object());
         np::ndarray axr = zeros(nr, 3), arr = zeros(nr, 0);
         std::copy(xr.begin(), xr.end(), reinterpret_cast<double*>(axr.get_data()));
         std::copy(rr.begin(), rr.end(), reinterpret_cast<double*>(arr.get_data()));
-        return bp::make_tuple(std::sqrt(largest), axr, arr, BindCrackFront::mask(farther));
+        return bp::make_tuple(std::sqrt(largest), bp::object(), axr, arr, BindCrackFront::mask(farther));
     }
     static np::ndarray velocities(const Sv& s) { return vectors(s, [&](long p) { return s.points().v[p]; }); }
 

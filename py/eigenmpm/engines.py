@@ -220,9 +220,21 @@ def _sceneReplaced(before):
             e._sceneEnded = True
 
 
+# (engines' version, weak references to the MpmEngines of O.engines then): mpmEngines reads
+# O.engines only after a change of the engines (the recorders ask at every record, after the step
+# has left the interpreter's code and data out of the caches, doc/performance.md "Session 35").
+_mpmFound = [None, ()]
+
+
 def mpmEngines():
     """The EigenMPM solver engines in ``O.engines``."""
-    return [e for e in O.engines if isinstance(e, MpmEngine)]
+    if _mpmFound[0] != _enginesVersion[0]:
+        _mpmFound[:] = [_enginesVersion[0], tuple(weakref.ref(e) for e in O.engines if isinstance(e, MpmEngine))]
+    found = [r() for r in _mpmFound[1]]
+    if any(e is None for e in found):  # (freed since: read them again)
+        _mpmFound[0] = None
+        return mpmEngines()
+    return found
 
 
 def findEngine(engine=None):

@@ -6,7 +6,7 @@ import numpy as np
 from yade import O, PyRunner
 
 from . import _eigenmpm, parallel
-from .engines import ENGINE, _register, _Released, findEngine
+from .engines import ENGINE, _register, _Released, findEngine, mpmEngines
 from .params import Param, apply, declare
 
 
@@ -199,7 +199,7 @@ class EigenErosion(PyRunner):
 
     def _action(self):
         mpm = findEngine(self.engine)
-        if not any(mpm is e for e in O.engines):
+        if not any(mpm is e for e in mpmEngines()):  # (O.engines read only after a change)
             raise ValueError(f"EigenMPM: engine = MpmEngine {mpm.label!r} is invalid; allowed: an MpmEngine in "
                              f"O.engines (EigenErosion {self.label!r} acts only on an engine of the scene)")
         # The MpmEngine attaches this stage at its step while this engine is in O.engines and not
@@ -268,9 +268,9 @@ class EigenErosion(PyRunner):
     @staticmethod
     def _mergedTips(xr, rr, farther, R2):
         """The tips among the recent points xr (squared distances rr from the origin): those
-        without a farther neighbour, from the farthest, each merged into a farther tip within
-        squared distance R2 of it."""
-        order = np.argsort(-rr)
+        without a farther neighbour, from the farthest (of two at the same distance, the first
+        row first), each merged into a farther tip within squared distance R2 of it."""
+        order = np.argsort(-rr, kind="stable")
         tips = []
         for k in order[~farther[order]]:
             p = xr[k]
@@ -347,16 +347,17 @@ class EigenErosion(PyRunner):
             front, tips = self._recordOfOneProcess(mpm, solver)
         else:  # (under mpiexec the eroded points' positions travel between the ranks: _crack)
             crack = self._crack(mpm)
-            front, tips = self._frontOf(crack), self._tipsOf(mpm, crack)
-        self.history.append((solver.time, self.dissipatedEnergy(), self.erodedCount(), front,
-                             [t.tolist() for t in tips]))
+            front, tips = self._frontOf(crack), [t.tolist() for t in self._tipsOf(mpm, crack)]
+        self.history.append((solver.time, self.dissipatedEnergy(), self.erodedCount(), front, tips))
 
     def _recordOfOneProcess(self, mpm, solver):
-        """record()'s front and tips in one process: _crack's, _frontOf's and _tipsOf's numbers
-        from one C++ call (solver.crackRecord, the same operations on the same numbers) and the
-        tips merged here. A record follows a step, when the interpreter runs cold: the numpy
-        steps took about 260 us per record in the branching plate (doc/performance.md,
-        "Session 31"). test_erosion.py compares both ways bit for bit."""
+        """record()'s front and tips (as lists) in one process: _crack's, _frontOf's and
+        _tipsOf's numbers from one C++ call (solver.crackRecord, the same operations on the same
+        numbers), which also merges the tips as _mergedTips does (here only for a NaN distance).
+        A record follows a step, when the interpreter runs cold: the numpy steps took about 260
+        us per record in the branching plate (doc/performance.md, "Session 31"), the merge's
+        numpy calls about 70-100 us ("Session 35"). test_erosion.py compares both ways bit for
+        bit."""
         if self._origin is None:
             ids = self.core.eventPoints()
             if not len(ids):
@@ -366,9 +367,11 @@ class EigenErosion(PyRunner):
         R2 = R ** 2
         window = self.tipWindow if self.tipWindow else 50 * O.dt
         axis = -1 if self.throughAxis is None else "xyz".index(self.throughAxis)
-        front, xr, rr, farther = solver.crackRecord(self.core, self._inPlane(self._origin), axis,
-                                                    solver.time - window, R, R2)
-        return front, (self._mergedTips(xr, rr, farther, R2) if len(rr) else [])
+        front, tips, xr, rr, farther = solver.crackRecord(self.core, self._inPlane(self._origin), axis,
+                                                          solver.time - window, R, R2)
+        if tips is None:
+            tips = [t.tolist() for t in self._mergedTips(xr, rr, farther, R2)]
+        return front, tips
 
     def tipSpeed(self, window=None):
         """Crack tip speed over the recorded history, as (times, speeds in m/s): the rate of

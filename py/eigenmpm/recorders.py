@@ -202,6 +202,20 @@ class VTKRecorder(PyRunner):
         self.collection = pvd
 
 
+def _plot():
+    """yade.plot, imported at the first record (not with the package: it loads matplotlib's
+    settings); afterwards without the import statement, whose `from` form runs importlib's Python
+    at every call (a record follows a step, when that code runs cold)."""
+    global _plotModule
+    if _plotModule is None:
+        from yade import plot
+        _plotModule = plot
+    return _plotModule
+
+
+_plotModule = None
+
+
 @declare
 class PlotRecorder(PyRunner):
     """Adds the MpmEngine's diagnostics to ``yade.plot`` every period: ``t`` (s), ``iter``, and
@@ -233,10 +247,9 @@ class PlotRecorder(PyRunner):
         self.command = _register(self)
 
     def _action(self):
-        from yade import plot
         mpm = findEngine(self.engine)
         # After the solver in O.engines the state is at solver.time (O.time advances later).
-        plot.addData(t=mpm.solver.time, iter=O.iter, **mpm.plotData())
+        _plot().addData(t=mpm.solver.time, iter=O.iter, **mpm.plotData())
 
 
 @declare

@@ -469,7 +469,7 @@ def _plainTips(x, times, now, window, origin, main, R2):
     r = np.sum((xm - origin) ** 2, axis=1)
     rr = np.sum((xr - origin) ** 2, axis=1)
     tips = []
-    for k in np.argsort(-rr):
+    for k in np.argsort(-rr, kind="stable"):
         p = xr[k]
         near = np.sum((xm - p) ** 2, axis=1) <= R2
         if np.any(r[near] > rr[k]):
@@ -622,3 +622,36 @@ def test_a_record_of_one_process_is_that_of_the_numpy_steps(dim):
         tipsSeen = max(tipsSeen, len(slow[1]))
     assert compared > 20 and tipsSeen >= 2, (compared, tipsSeen)
     assert er.history[-1][3] == slow[0] and er.history[-1][4] == [t.tolist() for t in slow[1]]
+
+
+def test_the_tips_merged_in_cpp_are_those_of_the_numpy_merge():
+    """crackMergedTips (the record's merge in C++, crackfront::mergedTips) keeps the rows
+    EigenErosion._mergedTips keeps, in the same order, bit for bit, on random recent points
+    (clusters within and beyond R of each other, distances at R exactly, candidates at the same
+    distance from the origin: of those the first row is taken first); with a NaN distance it
+    declines (None) and the numpy merge runs."""
+    rng = np.random.default_rng(11)
+    R = 0.75
+    R2 = R * R
+    ties = 0
+    for trial in range(300):
+        n = int(rng.integers(0, 40))
+        x = np.zeros((n, 3))
+        x[:, :2] = np.round(rng.uniform(-3, 3, (n, 2)) * 4) / 4  # on a grid of 1/4: distances at R exactly
+        if trial % 3 == 0:
+            x[:, 2] = rng.uniform(-0.1, 0.1, n)
+        rr = np.sum(x ** 2, axis=1)
+        farther = rng.uniform(size=n) < 0.5
+        merged = em._eigenmpm.crackMergedTips(x, rr, farther, R2)
+        assert merged == [t.tolist() for t in em.EigenErosion._mergedTips(x, rr, farther, R2)], trial
+        candidates = rr[~farther]
+        ties += len(np.unique(candidates)) < len(candidates)
+    assert ties > 50
+    # two candidates at one distance on either side of the axis, within R: the first row is the tip
+    x = np.array([[1.0, 0.25, 0.0], [1.0, -0.25, 0.0], [0.2, 0.0, 0.0]])
+    rr = np.sum(x ** 2, axis=1)
+    assert em._eigenmpm.crackMergedTips(x, rr, np.array([False, False, True]), R2) == [[1.0, 0.25, 0.0]]
+    assert em._eigenmpm.crackMergedTips(x[[1, 0, 2]], rr[[1, 0, 2]], np.array([False, False, True]), R2) == [
+        [1.0, -0.25, 0.0]]
+    rr[0] = np.nan
+    assert em._eigenmpm.crackMergedTips(x, rr, np.array([False, False, True]), R2) is None
