@@ -211,7 +211,9 @@ class BodyContact(PyRunner):
         Python API reads one body at a time; the common case (a free sphere) is read in C++
         (Contact.addFreeSpheres), the others here (doc/contact.md, "Cost"). Given mpm's solver,
         addFreeSpheres reads further and adds only the spheres that touch one of its points: the
-        others receive no impulse in this step."""
+        others receive no impulse in this step. It keeps the spheres' objects and flags from one
+        step to the next while they provably stand (self._cache, _bodiesVersion) and reads no
+        force when O.forces holds none (_forcesBefore; doc/contact.md, "Session 35")."""
         core, dt = self.core, O.dt
         core.clear()
         _, newton = _newton()
