@@ -803,7 +803,7 @@ class MpmEngine(PyRunner):
                                f"{self._lastIter} (solver step {solver.steps}) but YADE is at "
                                f"iteration {now}: the scene went back without its EigenMPM state "
                                "(load it with O.load/O.loadTmp after importing eigenmpm, or rebuild it)")
-        self._lastIter = now
+        vars(self)["_lastIter"] = now  # (not through the declared parameters' __setattr__: every step)
         t = O.time
         for bc in self.bcs.values():
             bc._update(t)
