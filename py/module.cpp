@@ -348,11 +348,10 @@ Eigen::Matrix3d toMat3(const bp::object& o, const char* what)
 }
 
 /// The Python objects of the YADE spheres that Contact.addFreeSpheres reads at every step (each
-/// sphere's Body, State and Shape), kept from one step to the next so that the step reads only
-/// what changes (its position and radius, and for a sphere that touches a point its velocity,
-/// mass and flags), not the three objects again (three of the 14 calls of YADE's Python API per
-/// sphere, doc/contact.md "Session 35"). An entry is used only while it provably stands for the
-/// scene's body:
+/// sphere's Body, State and Shape, and its flags), kept from one step to the next so that the
+/// step reads only what changes (its position and radius, and for a sphere that touches a point
+/// its velocity and mass), not the three objects and the flags again (doc/contact.md "Session
+/// 35"). An entry is used only while it provably stands for the scene's body:
 /// - it is cached only if YADE hands back the same Python objects on every read (O.bodies[id],
 ///   body.state and body.shape), as it does for objects made in Python (the body container's
 ///   shared pointer then holds a reference to the Python object); objects made in C++ come back
