@@ -13,7 +13,7 @@ from yade import O, PyRunner, Vector3
 
 from . import _eigenmpm
 from . import engines as _engines
-from .engines import ENGINE, _register, _Released, findEngine
+from .engines import ENGINE, _register, _Released, findEngine, mpmEngines
 from .fracture import sameStage
 from .params import Param, apply, declare
 
@@ -109,7 +109,6 @@ class BodyContact(PyRunner):
         self._selection = None  # (key, sphere ids, other ids) of the bodies that touch the points
         self._cache = None  # the spheres' YADE objects kept between steps (_eigenmpm.BodyCache)
         self._cleared = None  # (engines' version, MpmEngine id, whether a ForceResetter runs just before it)
-        self._inScene = None  # (engines' version, the MpmEngine) when it was last found in O.engines
         self.history = []  # (time, total force on the bodies (3), points in contact)
 
     # --- the stage --------------------------------------------------------------------------
@@ -157,12 +156,12 @@ class BodyContact(PyRunner):
     def _restored(self):
         """After eigenmpm.state restored this engine: what it kept of this process's objects
         (YADE's spheres, the engines' count, the MpmEngine's id) is read again."""
-        self._cache = self._cleared = self._inScene = None
+        self._cache = self._cleared = None
 
     def _release(self):
         self.core = _Released(f"the contact stage of BodyContact {self.label!r}")
         self._mpm, self._bodyIds, self.history, self._released = None, [], [], True
-        self._cache = self._cleared = self._inScene = None
+        self._cache = self._cleared = None
 
     def _checkOrder(self, mpm):
         engines = list(O.engines)
@@ -299,18 +298,13 @@ class BodyContact(PyRunner):
 
     # --- engine ------------------------------------------------------------------------------
     def _action(self):
-        # (YADE runs this at every iteration, cold after the step: O.engines is read only after a
-        # change of the engines, engines._enginesVersion)
-        key = _engines._enginesVersion[0]
-        if self._inScene is None or self._inScene[0] != key:
-            mpm = findEngine(self.engine)
-            if not any(mpm is e for e in O.engines):
-                raise ValueError(f"EigenMPM: engine = MpmEngine {mpm.label!r} is invalid; allowed: an MpmEngine "
-                                 f"in O.engines (BodyContact {self.label!r} acts only on an engine of the scene)")
-            self._inScene = (key, mpm)
+        mpm = findEngine(self.engine)
+        if not any(mpm is e for e in mpmEngines()):  # (O.engines read only after a change)
+            raise ValueError(f"EigenMPM: engine = MpmEngine {mpm.label!r} is invalid; allowed: an MpmEngine in "
+                             f"O.engines (BodyContact {self.label!r} acts only on an engine of the scene)")
         core = self.core
         if core is not None and O.iter % self.iterPeriod == 0:
-            self.history.append((self._inScene[1].solver.time, core.totalForce, core.pointsInContact))
+            self.history.append((mpm.solver.time, core.totalForce, core.pointsInContact))
 
     # --- diagnostics -------------------------------------------------------------------------
     def force(self, bodyId):
