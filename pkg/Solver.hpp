@@ -199,8 +199,10 @@ public:
     /// m_p eps:(B_p^T) (Kinematics.hpp); in 2D only z is non-zero.
     Eigen::Vector3d angularMomentum() const;
     /// kineticEnergy, elasticEnergy, linearMomentum and angularMomentum from one pass over the
-    /// points (a record of all four reads the points once, not four times): each bitwise the
-    /// function's own, whose sum it forms in the same order (those stay the reference, tested).
+    /// points (a record of all four reads the points once, not four times); the four functions
+    /// return its sums. Each is summed in 8 partial sums (point p in partial p mod 8) added in a
+    /// fixed order: the same bits in every lane width and thread count, and within round-off of
+    /// a plain sum in point order (tests/cpp/test_diagnostics.cpp).
     struct Diagnostics {
         double kinetic = 0, elastic = 0;
         Eigen::Vector3d momentum = Eigen::Vector3d::Zero(), angularMomentum = Eigen::Vector3d::Zero();
