@@ -123,6 +123,10 @@ template <int D, class K> void Solver<D, K>::schedulePoints(int nThreads)
         throw SimulationError(s.str());
     }
     stencil_.resize(points_.size());
+    if (settings_.transfer == Transfer::apic)
+        offset_.resize(points_.size());
+    else if (!offset_.empty())
+        std::vector<typename St::AffineOffset>().swap(offset_);
 }
 
 template <int D, class K> void Solver<D, K>::markCrackedNodes()
@@ -214,6 +218,8 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
                 // the kinetic energy and then stores the new B_p. (u and 1 / (h du) from the
                 // point's frame: Stencil::affineFrameAlong.)
                 const typename St::AffineFrame f = frame ? *frame : st.affineFrame(P.x[p], g);
+                if (!frame)  // (G2P reads the offsets; computeRun stored those of a run)
+                    for (int d = 0; d < D; ++d) A.offset[k].b[d] = f.b[d];
                 double u[D][S];
                 for (int d = 0; d < D; ++d)
                     for (int i = 0; i < S; ++i) u[d][i] = f.b[d] + i;
@@ -250,7 +256,7 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
             const auto x = [&](int i) -> const Vec<D>& { return points_.x[order[begin + i]]; };
             typename St::AffineFrame frames[decltype(apic)::value ? stencilRun : 1];
             if constexpr (decltype(apic)::value)
-                St::template computeRun<stencilRun>(end - begin, x, g, half, &stencil_[begin], frames);
+                St::template computeRun<stencilRun>(end - begin, x, g, half, &stencil_[begin], frames, &offset_[begin]);
             else
                 St::template computeRun<stencilRun>(end - begin, x, g, half, &stencil_[begin]);
             withLaneIsa([&]() EMP_LAMBDA_INLINE {  // (the rows' loops in the lanes' width)
@@ -1119,8 +1125,9 @@ template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThre
         const auto& P = A.P;
         const int p = A.order[k];
         const St& st = A.stencil[k];
-        double u[D][S];  // offsets in cells (particleToGrid)
-        st.cellOffsets(P.x[p], g, u);
+        double u[D][S];  // offsets in cells, from P2G's frame (the same numbers as cellOffsets)
+        for (int d = 0; d < D; ++d)
+            for (int i = 0; i < S; ++i) u[d][i] = A.offset[k].b[d] + i;
         Vec<D> vg;
         Mat<D> Bu;  // B_p / h
         st.affineSums(g, u, [&](int I) -> const Vec<D>& { return A.velocity[I]; }, vg, Bu);

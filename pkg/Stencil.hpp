@@ -64,6 +64,10 @@ template <int D, class K> struct Stencil {
     struct AffineFrame {
         double b[D], r[D];
     };
+    /// The frame's offsets b alone: what G2P needs of it (Solver::offset_).
+    struct AffineOffset {
+        double b[D];
+    };
     /// Index of the support's base node (its lowest corner) on the regular lattice. One number
     /// instead of the D lattice coordinates (8 B per point less in 2D and 3D: issue 12 item 3);
     /// baseOf recovers a coordinate where one is needed.
@@ -112,16 +116,17 @@ template <int D, class K> struct Stencil {
     {
         computeRun<R, false>(n, x, g, lp, out, nullptr);
     }
-    /// computeRun with each point's APIC frame (affineFrame) too, from the same lanes.
+    /// computeRun with each point's APIC frame (affineFrame) too, from the same lanes, and its
+    /// offsets once more in `offsets` (kept for G2P).
     template <int R, class X>
     static EMP_ALWAYS_INLINE void computeRun(int n, X&& x, const Grid<D>& g, const HalfWidth& lp, Stencil* out,
-                                             AffineFrame* frames)
+                                             AffineFrame* frames, AffineOffset* offsets)
     {
-        computeRun<R, true>(n, x, g, lp, out, frames);
+        computeRun<R, true>(n, x, g, lp, out, frames, offsets);
     }
     template <int R, bool affine, class X>
     static EMP_ALWAYS_INLINE void computeRun(int n, X&& x, const Grid<D>& g, const HalfWidth& lp, Stencil* out,
-                                             AffineFrame* frames)
+                                             AffineFrame* frames, AffineOffset* offsets = nullptr)
     {
         // The weights and their derivatives, value m of lane i at wd[m][i] (m = (d, k) of w, then
         // of dw: the order of a Stencil's w and dw).
@@ -149,7 +154,7 @@ template <int D, class K> struct Stencil {
         if constexpr (affine)
             for (int i = 0; i < n; ++i)
                 for (int d = 0; d < D; ++d) {
-                    frames[i].b[d] = fb[d][i];
+                    frames[i].b[d] = offsets[i].b[d] = fb[d][i];
                     frames[i].r[d] = fr[d][i];
                 }
         for (int i = 0; i < n; ++i) {

@@ -480,9 +480,10 @@ template <int D> void checkComputeRun()
                 const int m = std::min<int>(len, static_cast<int>(x.size() - begin));
                 std::vector<St> run(m), one(m), withFrames(m);
                 std::vector<typename St::AffineFrame> frames(m);
+                std::vector<typename St::AffineOffset> offsets(m);
                 const auto xOf = [&](int i) -> const Vec<D>& { return x[begin + i]; };
                 St::template computeRun<R>(m, xOf, g, half, run.data());
-                St::template computeRun<R>(m, xOf, g, half, withFrames.data(), frames.data());
+                St::template computeRun<R>(m, xOf, g, half, withFrames.data(), frames.data(), offsets.data());
                 for (int i = 0; i < m; ++i) {
                     one[i].compute(x[begin + i], g, half);
                     ASSERT_EQ(std::memcmp(&withFrames[i], &run[i], sizeof run[i]), 0);
@@ -490,6 +491,8 @@ template <int D> void checkComputeRun()
                     // moment diagonal (cellOffsets, momentDiagonal), bitwise.
                     const typename St::AffineFrame f = one[i].affineFrame(x[begin + i], g);
                     ASSERT_EQ(std::memcmp(&frames[i], &f, sizeof f), 0) << emp::name(w);
+                    // (the offsets kept for G2P: the frame's)
+                    ASSERT_EQ(std::memcmp(offsets[i].b, f.b, sizeof f.b), 0) << emp::name(w);
                     double uo[D][St::S];
                     one[i].cellOffsets(x[begin + i], g, uo);
                     const Vec<D> du = one[i].momentDiagonal(uo);
