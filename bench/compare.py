@@ -9,11 +9,16 @@ that keeps the arithmetic keeps them.
     /usr/bin/python3.11 bench/compare.py OLD NEW [--rounds 7] [--cases gimp2,gimp3]
         [--sizes 1e5] [--size3d 1e5] [--threads 1] [--min-time 2] [--steps N] [--metric cpu]
         [--bench-args "--transfer APIC --stress-update corotational"]
-        [--old-target bench_block] [--new-target bench_block_v2]
+        [--old-target bench_block] [--new-target bench_block_v2] [--cpus 0]
 
 --metric cpu rates each run by its CPU time (points x steps / CPU seconds) instead of its wall
 time: on one thread it is much less sensitive to other jobs on a shared machine (they still
 share caches and memory bandwidth), but it cannot measure thread scaling.
+
+--cpus 0 runs every benchmark on CPU 0 only (os.sched_setaffinity; a list such as 0,1 for two
+threads). On this project's 2-vCPU machine the two vCPUs ran at different speeds for minutes at
+a time, and an unpinned run landed on either: rounds' ratios spread over 0.6-1.7, against
+0.92-1.06 pinned (doc/performance.md, "Session 37").
 
 OLD and NEW are anything git rev-parse takes (a commit, a branch, HEAD). NEW may also be
 'worktree': the current working tree as it is (built in build-compare/ beside build/).
@@ -26,6 +31,8 @@ import shlex
 import statistics
 import subprocess
 import sys
+
+from cpus import cpuList, pinning
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -55,7 +62,7 @@ def measure(exe, a):
            "--warmup", "2"]
     cmd += ["--steps", str(a.steps)] if a.steps else ["--min-time", str(a.min_time)]
     cmd += shlex.split(a.bench_args)
-    out = run(cmd, capture_output=True).stdout
+    out = run(cmd, capture_output=True, preexec_fn=pinning(a.cpus)).stdout
     rows = [json.loads(line[5:]) for line in out.splitlines() if line.startswith("JSON ")]
     return {(r["case"], r["points"], r["threads"]): r for r in rows}
 
@@ -88,6 +95,8 @@ def main():
     p.add_argument("--new-target", default="bench_block", help="the same for NEW")
     p.add_argument("--workdir", default="/tmp/emp-compare")
     p.add_argument("--jobs", type=int, default=os.cpu_count())
+    p.add_argument("--cpus", type=cpuList, default=None,
+                   help="run every benchmark on these CPUs only (e.g. 0; default: anywhere)")
     a = p.parse_args()
     os.makedirs(a.workdir, exist_ok=True)
     exe = {"old": build(a.old, a.workdir, a.jobs, a.old_target), "new": build(a.new, a.workdir, a.jobs, a.new_target)}

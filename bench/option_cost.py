@@ -11,7 +11,7 @@ ratios with their quartiles, for each of --repeats invocations, then the median 
 
     /usr/bin/python3.11 bench/option_cost.py [--exe build/bench_block_v2] [--repeats 3]
         [--cases gimp2,gimp3] [--sizes 1e5] [--size3d 5e4] [--min-time 4]
-        [--modes "APIC smallStrain,FLIP corotational,APIC corotational"] [--control]
+        [--modes "APIC smallStrain,FLIP corotational,APIC corotational"] [--control] [--cpus 0]
 
 --control adds the default mode a second time: its ratio shows what the method itself reads for
 two identical scenes (1.00 within a few per mille when the pairing holds).
@@ -22,6 +22,8 @@ import os
 import statistics
 import subprocess
 
+from cpus import cpuList, pinning
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 DEFAULT = "FLIP smallStrain"
 
@@ -30,7 +32,7 @@ def run(a, case, modes):
     """One invocation: the JSON row of each mode, in the order given."""
     cmd = [a.exe, "--cases", case, "--sizes", a.sizes, "--size3d", a.size3d, "--threads", "1",
            "--min-time", str(a.min_time), "--warmup", "2", "--modes", ",".join(modes)]
-    out = subprocess.run(cmd, check=True, text=True, capture_output=True).stdout
+    out = subprocess.run(cmd, check=True, text=True, capture_output=True, preexec_fn=pinning(a.cpus)).stdout
     return [json.loads(line[5:]) for line in out.splitlines() if line.startswith("JSON ")]
 
 
@@ -45,6 +47,8 @@ def main():
     p.add_argument("--modes", default="APIC smallStrain,FLIP corotational,APIC corotational",
                    help="comma-separated 'TRANSFER STRESSUPDATE' pairs")
     p.add_argument("--control", action="store_true", help="also time the default against itself")
+    p.add_argument("--cpus", type=cpuList, default=None,
+                   help="run the benchmark on these CPUs only (e.g. 0; default: anywhere)")
     a = p.parse_args()
     modes = [DEFAULT] + [m.strip() for m in a.modes.split(",")] + ([DEFAULT] if a.control else [])
     print(f"time per step over the default's ({DEFAULT}), one process per invocation stepping the modes in "
