@@ -327,6 +327,8 @@ template <int D, class K> struct Stencil {
     /// moment matrix is h^2 diag(momentDiagonal(u)) and h cancels from C_p (x_I - x_p)). Two
     /// operations per direction and one per node, against four per node for `offsets`.
     /// x must be the position the stencil was computed at (its base is found again from it).
+    /// The passes take these numbers from P2G's frame (AffineFrame::b, kept for G2P in
+    /// Solver::offset_); this is their plain form, against which the tests check the frame's.
     EMP_ALWAYS_INLINE void cellOffsets(const Vec<D>& x, const Grid<D>& g, double (*u)[S]) const
     {
         for (int d = 0; d < D; ++d) {
