@@ -1553,6 +1553,7 @@ template <int D, bool apic, bool one> PointSums<D> pointSums(const MaterialPoint
 
 EMP_ALWAYS_INLINE double sumOfLanes(const double (&a)[kSumLanes])
 {
+    static_assert(kSumLanes == 8, "the fixed order below adds eight partials");
     return ((a[0] + a[1]) + (a[2] + a[3])) + ((a[4] + a[5]) + (a[6] + a[7]));
 }
 
