@@ -158,7 +158,7 @@ int EigenErosion<D>::apply(MaterialPoints<D>& P, const std::vector<ElasticMateri
         const ElasticMaterial& m = materials[P.material[p]];
         before_.push_back(full(P.stress[p]));
         P.damage[p] = 0.0;
-        const LawResponse<D> r = lawResponse<D>(full(P.strain[p]), m);
+        const LawResponse<D> r = lawResponse<D>(P.strainOf(p), m);
         P.stress[p] = r.sigmaMinus;                               // g(0) sigma+ + sigma-
         P.energy[p] = P.damage[p] * r.psiPlus + r.psiMinus;       // (as the stress pass writes it)
     }

@@ -5,7 +5,10 @@
 #include <string>
 #include <vector>
 
+#include <limits>
+
 #include "ElasticMaterial.hpp"
+#include "Kinematics.hpp"
 #include "PointTensor.hpp"
 
 namespace emp {
@@ -35,7 +38,9 @@ template <int D> struct MaterialPoints {
     std::vector<Vec<D>> x;        ///< position
     std::vector<Vec<D>> v;        ///< velocity v^{n-1/2}
     std::vector<double> volume;   ///< V_p (reference volume; small-strain theory)
-    std::vector<PointTensor<D>> strain;  ///< total small strain eps (2D: symmetric, PointTensor.hpp)
+    /// Total small strain eps of the small-strain update (2D: symmetric, PointTensor.hpp). Empty
+    /// when `deformation` is on: the co-rotated strain U - I follows from F (strainOf).
+    std::vector<PointTensor<D>> strain;
     std::vector<PointTensor<D>> stress;  ///< Cauchy stress sigma = g(c) sigma+ + sigma- (Eq 7)
     /// Elastic energy density c psi+ + psi- (Eqs 3-4, 7) at the strain and damage of the last
     /// stress update (erosion updates the points it erodes): what elasticEnergy sums. psi+ and
@@ -48,7 +53,7 @@ template <int D> struct MaterialPoints {
     /// within a step, from P2G to G2P, h C_p at the point's position. Empty unless `affine` is on.
     std::vector<Mat<D>> affineVelocity;
     /// Deformation gradient F of the co-rotational update (Kinematics.hpp); empty unless
-    /// `deformation` is on. `strain` then holds the co-rotated strain U - I.
+    /// `deformation` is on. The co-rotated strain U - I of F = R U is then not stored (strainOf).
     std::vector<Mat<D>> deformationGradient;
     /// The body each point belongs to (0-63): bodies in one grid touch without bonding
     /// (Solver::setPointBodies). Empty unless `bodies` is on: one body pays nothing.
@@ -74,6 +79,17 @@ template <int D> struct MaterialPoints {
     }
 
     std::size_t size() const { return x.size(); }
+    /// Point p's strain: the small-strain update's eps, or the co-rotational update's co-rotated
+    /// strain U - I of its F = R U, bitwise the one the stress update used (polarDecomposition,
+    /// whose numbers the stress pass's lanes reproduce). Not stored with F: the step then writes
+    /// 24 B (2D) or 72 B (3D) less per point. NaN for a degenerate F (the step's stress is NaN).
+    Mat<D> strainOf(std::size_t p) const
+    {
+        if (!deformation) return full(strain[p]);
+        Mat<D> R, U;
+        if (!polarDecomposition(deformationGradient[p], R, U)) return Mat<D>::Constant(std::numeric_limits<double>::quiet_NaN());
+        return U - Mat<D>::Identity();
+    }
     /// m_p = rho V_p: computed, not stored (8 B per point less; bitwise the mass stored before,
     /// which was rho V_p as the point was added).
     double mass(std::size_t p) const { return density[material[p]] * volume[p]; }
@@ -110,6 +126,7 @@ template <int D> struct MaterialPoints {
     {
         if (name == "affineVelocity") return affine;
         if (name == "deformationGradient") return deformation;
+        if (name == "strain") return !deformation;
         if (name == "body") return bodies;
         if (name == "globalId") return distributed;
         if (name == "reference") return referenced;
@@ -136,7 +153,7 @@ template <int D> struct MaterialPoints {
         x.push_back(pos);
         v.push_back(vel);
         volume.push_back(vol);
-        strain.push_back(PointTensor<D>(Mat<D>::Zero()));
+        if (!deformation) strain.push_back(PointTensor<D>(Mat<D>::Zero()));
         stress.push_back(PointTensor<D>(Mat<D>::Zero()));
         energy.push_back(0.0);
         history.push_back(0.0);

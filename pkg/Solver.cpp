@@ -527,8 +527,7 @@ template <int D, class K> EMP_ALWAYS_INLINE void Solver<D, K>::corotationalStres
         P.stress[p].setConstant(std::numeric_limits<double>::quiet_NaN());
         return;
     }
-    const Mat<D> eps = U - Mat<D>::Identity();
-    P.strain[p] = eps;
+    const Mat<D> eps = U - Mat<D>::Identity();  // (not stored: MaterialPoints::strainOf)
     const ElasticMaterial& m = materials_[P.material[p]];
     withLaw(m.law, [&](auto law) {
         const LawResponse<D> r = decltype(law)::template response<D>(eps, m);
@@ -574,7 +573,7 @@ EMP_ALWAYS_INLINE void Solver<D, K>::corotationalOfRun2(const int* ids, const St
     // algebra, whose divisions and square roots go through the processor side by side.
     auto& P = points_;
     alignas(64) double l[4][stressRun], f[4][stressRun], c[stressRun], lambda[stressRun], mu[stressRun];
-    alignas(64) double e[4][stressRun], sigma[4][stressRun], psiPlus[stressRun], psiMinus[stressRun];
+    alignas(64) double sigma[4][stressRun], psiPlus[stressRun], psiMinus[stressRun];
     alignas(64) double ok[stressRun];
     withLaneIsa([&]() EMP_LAMBDA_INLINE {  // (the gradients' 4-lane sums in the lanes' width)
         const PassArrays a = passArrays();
@@ -604,9 +603,8 @@ EMP_ALWAYS_INLINE void Solver<D, K>::corotationalOfRun2(const int* ids, const St
         double cr, sr;
         Plain2 U, s;
         ok[i] = polarDecomposition2(F, cr, sr, U) ? 1.0 : 0.0;
-        e[0][i] = U.xx - 1.0, e[1][i] = U.xy - 0.0, e[2][i] = U.yx - 0.0, e[3][i] = U.yy - 1.0;
-        Law::response2(e[0][i], e[1][i], e[2][i], e[3][i], c[i], lambda[i], mu[i], s.xx, s.xy, s.yx, s.yy, psiPlus[i],
-                       psiMinus[i]);
+        const double exx = U.xx - 1.0, exy = U.xy - 0.0, eyx = U.yx - 0.0, eyy = U.yy - 1.0;
+        Law::response2(exx, exy, eyx, eyy, c[i], lambda[i], mu[i], s.xx, s.xy, s.yx, s.yy, psiPlus[i], psiMinus[i]);
         const Plain2 t = cauchyStress2(cr, sr, U, s);
         sigma[0][i] = t.xx, sigma[1][i] = t.xy, sigma[2][i] = t.yx, sigma[3][i] = t.yy;
     });
@@ -617,7 +615,6 @@ EMP_ALWAYS_INLINE void Solver<D, K>::corotationalOfRun2(const int* ids, const St
             P.stress[p].setConstant(std::numeric_limits<double>::quiet_NaN());
             continue;
         }
-        P.strain[p] = Sym2::of(e[0][i], e[1][i], e[2][i], e[3][i]);
         P.stress[p] = Sym2::of(sigma[0][i], sigma[1][i], sigma[2][i], sigma[3][i]);
         storeEnergies(p, c[i], psiPlus[i], psiMinus[i]);
     }
@@ -726,9 +723,7 @@ EMP_NOINLINE void Solver<D, K>::corotationalOfRun3(const int* ids, const St* st,
             if (state[i] != 2.0) {  // a degenerate F: NaN stress, reported by the step's check
                 P.stress[p].setConstant(std::numeric_limits<double>::quiet_NaN());
                 for (int k = 0; k < 9; ++k) sig[k][i] = 0;  // (the lane's Cauchy stress is not used)
-                continue;
             }
-            P.strain[p] = strainOf(i);
         }
         const bool shared = withSharedPointwiseLaw(ids, n, [&](auto law) {
             using Law = decltype(law);

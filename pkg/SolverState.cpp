@@ -11,14 +11,15 @@ namespace emp {
 
 namespace {
 const char* kFormat = "EigenMPM solver state";
-constexpr std::uint32_t kVersion = 8;  // 2: transfer, stress update, energy diagnostics; 3: contact work, crack-face contact;
+constexpr std::uint32_t kVersion = 9;  // 2: transfer, stress update, energy diagnostics; 3: contact work, crack-face contact;
                                        // 4: bodies in one grid (point body ids, their friction); 5: a rank's part
                                        // of a distributed run (its flag, point ids, the ranks' strips); 6: the
                                        // points' reference positions of a run distributed at set-up; 7: the
                                        // scheduler's columns, and a distributed run's columns of ranks; 8: a 2D
                                        // point's strain and stress as symmetric tensors (three numbers), and
                                        // no mass array (a point's mass is rho V), and the elastic energy
-                                       // density c psi+ + psi- in place of psi+ and psi-
+                                       // density c psi+ + psi- in place of psi+ and psi-; 9: no strain
+                                       // array with the co-rotational update (its strain follows from F)
 
 /// A point array as saved; before version 8 a 2D strain or stress was a full 2 x 2 matrix.
 template <class T> void readPointArray(ArchiveReader& r, int version, std::vector<T>& a)
@@ -239,6 +240,12 @@ template <int D, class K> std::shared_ptr<Solver<D, K>> Solver<D, K>::loadState(
             return;
         }
         r.expect(name);
+        if (h.version < 9 && std::string(name) == "strain" && s->points_.deformation) {  // (the co-rotated
+            std::remove_reference_t<decltype(a)> stored;                                  // strain until 9)
+            readPointArray(r, h.version, stored);
+            if (stored.size() != s->points_.size()) r.fail("a point array 'strain' of another length");
+            return;
+        }
         readPointArray(r, h.version, a);
         if (a.size() != s->points_.expectedLength(name))
             r.fail(std::string("a point array '") + name + "' of another length");

@@ -897,20 +897,32 @@ template <class Sv> struct Bind {
         np::ndarray a = zeros(n, 3, 3);
         double* out = reinterpret_cast<double*>(a.get_data());
         for (long p = 0; p < n; ++p) {
-            Mat<D> t = stress ? full(P.stress[p]) : full(P.strain[p]);
-            if (!stress && P.deformation) {  // the co-rotated strain U - I, turned to the spatial frame
+            // The strain: the small-strain update's, or the co-rotated strain U - I turned to the
+            // spatial frame, R (U - I) R^T (NaN for a degenerate F, whose stress is NaN too).
+            Mat<D> eps, t;
+            if (stress && D == 3) {  // (3D stress needs no strain)
+                t = full(P.stress[p]);
+            } else if (P.deformation) {
                 Mat<D> R, U;
-                if (polarDecomposition(P.deformationGradient[p], R, U)) t = R * t * R.transpose();
+                eps.setConstant(std::numeric_limits<double>::quiet_NaN());
+                t = eps;
+                if (polarDecomposition(P.deformationGradient[p], R, U)) {
+                    eps = U - Mat<D>::Identity();  // (MaterialPoints::strainOf)
+                    t = R * eps * R.transpose();
+                }
+            } else {
+                eps = t = full(P.strain[p]);
             }
+            if (stress) t = full(P.stress[p]);
             for (int i = 0; i < D; ++i)
                 for (int j = 0; j < D; ++j) out[9 * p + 3 * i + j] = t(i, j);
             if constexpr (D == 2) {
                 const ElasticMaterial& m = s.materials()[P.material[p]];
                 double zz = 0;
                 if (stress)
-                    withLaw(m.law, [&](auto law) { zz = decltype(law)::outOfPlaneStress(full(P.strain[p]), P.damage[p], m); });
+                    withLaw(m.law, [&](auto law) { zz = decltype(law)::outOfPlaneStress(eps, P.damage[p], m); });
                 else if (m.planeStress)
-                    zz = -m.nu / (1.0 - m.nu) * P.strain[p].trace();
+                    zz = -m.nu / (1.0 - m.nu) * eps.trace();
                 out[9 * p + 8] = zz;
             }
         }
@@ -962,7 +974,7 @@ template <class Sv> struct Bind {
         const auto& P = s.points();
         std::vector<double> e(P.size());
         for (std::size_t p = 0; p < P.size(); ++p) {
-            const LawResponse<D> r = lawResponse<D>(full(P.strain[p]), s.materials()[P.material[p]]);
+            const LawResponse<D> r = lawResponse<D>(P.strainOf(p), s.materials()[P.material[p]]);
             e[p] = plus ? r.psiPlus : r.psiMinus;
         }
         return scalars(e);

@@ -196,8 +196,11 @@ template <int D> void checkCorotationalRuns()
     for (std::size_t p = 0; p < P.size(); ++p) {
         Mat<D> R, U;
         ASSERT_TRUE(emp::polarDecomposition(P.deformationGradient[p], R, U)) << "point " << p;
+        // The co-rotated strain is not stored: strainOf derives it from F, and the stress and
+        // energy below show it is, bitwise, the strain the stress update used.
         const Mat<D> eps = U - Mat<D>::Identity();
-        for (int k = 0; k < D * D; ++k) ASSERT_EQ(bits(emp::full(P.strain[p])(k)), bits(eps(k))) << "point " << p;
+        ASSERT_TRUE(P.strain.empty());
+        for (int k = 0; k < D * D; ++k) ASSERT_EQ(bits(P.strainOf(p)(k)), bits(eps(k))) << "point " << p;
         const auto r = emp::lawResponse<D>(eps, s.materials()[P.material[p]]);
         const Mat<D> sigma = emp::cauchyStress<D>(R, U, P.damage[p] * r.sigmaPlus + r.sigmaMinus);
         for (int k = 0; k < D * D; ++k) ASSERT_EQ(bits(emp::full(P.stress[p])(k)), bits(sigma(k))) << "point " << p;

@@ -15,12 +15,16 @@ TYPED_TEST_SUITE(StateTest, emptest::AllSolvers);
 
 /// A block with a random velocity field, a velocity condition, a ramped traction, an interior
 /// crack and an erosion stage whose Gc some points reach within the run.
-template <int D, class K> std::shared_ptr<emp::Solver<D, K>> scene(unsigned seed, int columnCells = 0)
+template <int D, class K>
+std::shared_ptr<emp::Solver<D, K>> scene(unsigned seed, int columnCells = 0,
+                                        emp::StressUpdate update = emp::StressUpdate::smallStrain)
 {
     std::mt19937 rng(seed);
     std::uniform_real_distribution<double> u(-1.0, 1.0);
     auto st = emptest::typicalSettings(0.01, 2);
     st.columnCells = columnCells;
+    st.stressUpdate = update;
+    if (update == emp::StressUpdate::corotational && K::affineTransfer) st.transfer = emp::Transfer::apic;
     st.gravity = Eigen::Vector3d(0.0, -9.81, 0.0);
     auto s = std::make_shared<emp::Solver<D, K>>(st);
     const int mat = s->addMaterial(1e7, 0.25, 1000, D == 2, emp::lawIndex("spectral"));
@@ -77,7 +81,7 @@ template <class Sv> void expectEnergyOfTheLaw(const Sv& a)
 {
     const auto& P = a.points();
     for (std::size_t p = 0; p < P.size(); ++p) {
-        const auto r = emp::lawResponse<Sv::dim>(emp::full(P.strain[p]), a.materials()[P.material[p]]);
+        const auto r = emp::lawResponse<Sv::dim>(P.strainOf(p), a.materials()[P.material[p]]);
         ASSERT_EQ(emptest::bits(P.energy[p]), emptest::bits(P.damage[p] * r.psiPlus + r.psiMinus)) << "point " << p;
     }
 }
@@ -251,6 +255,91 @@ TEST(StateTest2D, AStateOfVersion7IsRestoredWithItsFullTensors)
         b->step(dt, 2);
     }
     expectSame(*a, *b);
+}
+
+/// The element count of the named point array in a saved state.
+std::uint64_t countOf(const std::string& bytes, const std::string& name)
+{
+    std::uint64_t n;
+    std::memcpy(&n, &bytes[arrayAt(bytes, name)], 8);
+    return n;
+}
+
+TYPED_TEST(StateTest, CoRotationalStateSavesNoStrainAndContinuesBitwise)
+{
+    // The co-rotational update stores F and derives the co-rotated strain from it
+    // (MaterialPoints::strainOf): the state has an empty strain array, and a restored solver
+    // continues bitwise, its eroded points' energies those of the derived strain.
+    constexpr int D = TypeParam::D;
+    using K = typename TypeParam::K;
+    using Sv = emp::Solver<D, K>;
+    auto a = scene<D, K>(3, 0, emp::StressUpdate::corotational);
+    ASSERT_TRUE(a->points().strain.empty());
+    const double dt = 0.5 * a->criticalTimeStep();
+    int erodingSteps = 0;
+    const auto steps = [&](int n, Sv* b) {
+        for (int k = 0; k < n; ++k) {
+            a->step(dt, 1);
+            if (b) b->step(dt, 2);
+            if (!a->erosion()->lastEroded().empty()) {
+                ++erodingSteps;
+                expectEnergyOfTheLaw(*a);
+            }
+        }
+    };
+    steps(15, nullptr);
+    std::stringstream archive;
+    a->saveState(archive);
+    EXPECT_EQ(countOf(archive.str(), "strain"), 0u);
+    EXPECT_EQ(countOf(archive.str(), "deformationGradient"), a->points().size());
+    auto b = Sv::loadState(archive);
+    EXPECT_EQ(b->settings().stressUpdate, emp::StressUpdate::corotational);
+    EXPECT_TRUE(b->points().strain.empty());
+    expectSame(*a, *b);
+    steps(25, b.get());
+    expectSame(*a, *b);
+    EXPECT_GT(a->erosion()->erodedCount(), 0u) << "the run should erode";
+    EXPECT_GT(erodingSteps, 0);
+}
+
+TEST(StateTest2D, AStateOfVersion8WithTheCoRotatedStrainIsRestored)
+{
+    // Until version 9 the co-rotational update saved the co-rotated strain too: read and passed
+    // over (the state's F gives the same numbers).
+    using Sv = emp::Solver<2, emp::GimpKernel>;
+    auto a = scene<2, emp::GimpKernel>(5, 0, emp::StressUpdate::corotational);
+    const double dt = 0.5 * a->criticalTimeStep();
+    for (int k = 0; k < 20; ++k) a->step(dt, 1);
+    std::stringstream archive;
+    a->saveState(archive);
+    std::string bytes = archive.str();
+    const std::size_t versionAt = 8 + std::string("EigenMPM solver state").size();
+    const std::uint32_t eight = 8;
+    std::memcpy(&bytes[versionAt], &eight, 4);
+    const auto& P = a->points();
+    std::vector<double> strain;
+    for (std::size_t p = 0; p < P.size(); ++p) {
+        const emp::Sym2 t(P.strainOf(p));
+        strain.insert(strain.end(), {t.xx, t.xy, t.yy});
+    }
+    std::string array = arrayOf(strain);
+    const std::uint64_t n = P.size();
+    std::memcpy(&array[0], &n, 8);
+    bytes.replace(arrayAt(bytes, "strain"), 8, array);
+    std::stringstream old(bytes);
+    auto b = Sv::loadState(old);
+    EXPECT_TRUE(b->points().strain.empty());
+    expectSame(*a, *b);
+    for (int k = 0; k < 10; ++k) {
+        a->step(dt, 1);
+        b->step(dt, 2);
+    }
+    expectSame(*a, *b);
+    // A strain array of another length is refused.
+    bytes.replace(arrayAt(bytes, "strain"), 8, arrayOf({0.0}).substr(0, 8));
+    std::stringstream shorter(bytes);
+    const std::string m = emptest::messageOf<emp::SimulationError>([&] { Sv::loadState(shorter); });
+    EXPECT_TRUE(emptest::contains(m, "'strain' of another length")) << m;
 }
 
 /// A condition with no saved form.

@@ -61,7 +61,7 @@ Outcome compare(const emp::SolverSettings& settings, const Build<D, K>& build, i
     for (std::size_t p = 0; p < P.size(); ++p) {
         const int q = P.globalId[p];
         const bool same = sameBits(P.x[p], R.x[q]) && sameBits(P.v[p], R.v[q]) && sameBits(emp::full(P.stress[p]), emp::full(R.stress[q])) &&
-                          sameBits(emp::full(P.strain[p]), emp::full(R.strain[q])) && sameBits(P.damage[p], R.damage[q]) &&
+                          sameBits(P.strainOf(p), R.strainOf(q)) && sameBits(P.damage[p], R.damage[q]) &&
                           sameBits(P.history[p], R.history[q]);
         ++o.compared;
         o.differing += !same;

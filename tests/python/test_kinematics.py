@@ -86,9 +86,30 @@ def test_plot_data_has_the_energy_balance_and_momenta_and_a_restart_continues_bi
     for s in (mpm.solver, copy):
         for _ in range(25):
             s.step(O.dt, 2)
-    for f in ("positions", "velocities", "stress", "velocityGradients", "deformationGradients"):
+    for f in ("positions", "velocities", "stress", "strain", "psiPlus", "velocityGradients", "deformationGradients"):
         assert np.array_equal(getattr(mpm.solver, f)(), getattr(copy, f)()), f
     assert mpm.solver.kineticEnergyAtStep() == copy.kineticEnergyAtStep()
+
+
+def test_corotational_strain_is_that_of_the_deformation_gradient_in_the_spatial_frame():
+    """With the co-rotational update the strain is not stored: strain() gives R (U - I) R^T of
+    each point's F = R U, the out-of-plane component from the plane condition."""
+    O.reset()
+    mpm, erosion, omega = disc.build(0.005, 0.001, 0.1, "APIC", "corotational")
+    O.run(40, True)
+    F = mpm.solver.deformationGradients()[:, :2, :2]
+    c, s = F[:, 0, 0] + F[:, 1, 1], F[:, 1, 0] - F[:, 0, 1]
+    r = np.hypot(c, s)
+    R = np.empty_like(F)
+    R[:, 0, 0], R[:, 0, 1], R[:, 1, 0], R[:, 1, 1] = c / r, -s / r, s / r, c / r
+    M = np.einsum("pki,pkj->pij", R, F)
+    eps = 0.5 * (M + M.transpose(0, 2, 1)) - np.eye(2)
+    expected = np.einsum("pik,pkl,pjl->pij", R, eps, R)
+    got = mpm.solver.strain()
+    assert np.abs(expected).max() > 1e-7, "the disc should strain"
+    assert np.allclose(got[:, :2, :2], expected, rtol=0, atol=1e-12 * np.abs(expected).max())
+    assert not np.isnan(got).any()
+    assert np.all(mpm.solver.psiPlus() >= 0)
 
 
 @pytest.mark.parametrize("dim,transfer", [(2, "FLIP"), (2, "APIC"), (3, "FLIP"), (3, "APIC")])
