@@ -57,6 +57,9 @@ template <int D> using PointTensor = std::conditional_t<D == 2, Sym2, Mat<D>>;
 /// The D x D matrix of a stored tensor.
 inline Mat<2> full(const Sym2& s) { return s.mat(); }
 inline const Mat<3>& full(const Mat<3>& m) { return m; }
+/// The sum of a stored tensor's numbers: finite exactly when each is, unless it overflows.
+inline double sumOf(const Sym2& s) { return s.xx + s.xy + s.yy; }
+inline double sumOf(const Mat<3>& m) { return m.sum(); }
 
 /// Stores the value of the matrix expression e (2D: its symmetric part).
 template <class E> void store(Sym2& t, const Eigen::MatrixBase<E>& e) { t = Sym2(Mat<2>(e)); }

@@ -832,8 +832,14 @@ template <int D, class K> void Solver<D, K>::stressAndInternalForce(double dt, i
                     scatterInternalForce<decltype(withGravity)::value, decltype(corotational)::value>(
                         a, a.order[k], a.stencil[k], gravity, decltype(corotational)::value ? J[k - begin] : 0.0);
             });
+            // The run's stresses, still in the L1 cache, checked: their sum is finite unless one
+            // is not (G2P's check reports the point).
+            double sum = 0;
+            for (int k = begin; k < end; ++k) sum += sumOf(points_.stress[order[k]]);
+            if (!std::isfinite(sum)) __atomic_store_n(&stressNonFinite_, 1, __ATOMIC_RELAXED);
         }, between);
     };
+    stressNonFinite_ = 0;
     stepLaw_ = materials_.empty() ? -1 : materials_[0].law;
     for (const ElasticMaterial& m : materials_)
         if (m.law != stepLaw_) stepLaw_ = -1;
@@ -1051,8 +1057,9 @@ template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThre
     // only itself; the loop runs in the binned order to stream the stencils. The checks of the
     // new state cost no branch per point: the loop keeps the bounding box of the positions and
     // a sum of every value checked (a non-finite value makes it non-finite), a D-vector of
-    // sums without a sum across its components per point (only its finiteness is read); only
-    // when either is out of bounds does a second, serial scan find the first point at fault.
+    // sums without a sum across its components per point (only its finiteness is read); the
+    // stresses were checked likewise by the stress pass (stressNonFinite_). Only when either is
+    // out of bounds does a second, serial scan find the first point at fault.
     struct Check {
         Vec<D> lo = Vec<D>::Constant(std::numeric_limits<double>::infinity());
         Vec<D> hi = Vec<D>::Constant(-std::numeric_limits<double>::infinity());
@@ -1069,11 +1076,7 @@ template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThre
         P.x[p] = x;
         acc.lo = acc.lo.cwiseMin(x);
         acc.hi = acc.hi.cwiseMax(x);
-        const auto& sigma = P.stress[p];
-        if constexpr (D == 2)  // (the stress's components, xx xy yy, as two vectors)
-            acc.sum += (v + x) + (Vec<2>(sigma.xx, sigma.xy) + Vec<2>(sigma.xy, sigma.yy));
-        else
-            acc.sum += (v + x) + (sigma.col(0) + sigma.col(1) + sigma.col(2));
+        acc.sum += v + x;  // (the stresses: checked by the stress pass, stressNonFinite_)
         acc.vmax2 = std::max(acc.vmax2, v.squaredNorm());
     };
     const auto flip = [&](const PassArrays& A, int k, Check& acc) EMP_LAMBDA_INLINE {
@@ -1162,7 +1165,7 @@ template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThre
         }
         return false;
     };
-    double nonFinite = !c.sum.allFinite(), off = P0.size() > 0 && (offGrid(c.lo) || offGrid(c.hi));
+    double nonFinite = !c.sum.allFinite() || stressNonFinite_, off = P0.size() > 0 && (offGrid(c.lo) || offGrid(c.hi));
     if (dist_) {
         // Every rank learns of a fault anywhere (and stops with it); the diagnostics are summed.
         std::vector<double> sum{c.kinetic, tractionWork_ - workAtStart_[0], gravityWork_ - workAtStart_[1]};

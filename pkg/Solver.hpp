@@ -414,6 +414,10 @@ private:
     std::vector<double> workBefore_;  ///< velocity conditions' work before this step (distributed)
     double workAtStart_[2] = {0, 0};  ///< traction and gravity work before this step
     double time_ = 0, maxSpeed_ = 0;
+    /// Set (to 1) by the stress pass of a step when a point's stress is not finite: G2P's check
+    /// then names the point. (Checked where the stress is in the cache: G2P reading every point's
+    /// stress again for its check cost the 2D step 4 %, doc/performance.md "Session 38".)
+    int stressNonFinite_ = 0;
     double kineticAtStep_ = 0, tractionWork_ = 0, gravityWork_ = 0, contactWork_ = 0;
     std::int64_t steps_ = 0;
 };
