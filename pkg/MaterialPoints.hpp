@@ -2,10 +2,9 @@
 #pragma once
 #include <algorithm>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
-
-#include <limits>
 
 #include "ElasticMaterial.hpp"
 #include "Kinematics.hpp"
