@@ -897,23 +897,22 @@ template <class Sv> struct Bind {
         np::ndarray a = zeros(n, 3, 3);
         double* out = reinterpret_cast<double*>(a.get_data());
         for (long p = 0; p < n; ++p) {
-            // The strain: the small-strain update's, or the co-rotated strain U - I turned to the
-            // spatial frame, R (U - I) R^T (NaN for a degenerate F, whose stress is NaN too).
+            // t, the tensor written: the stress, or the strain (the co-rotated U - I of F = R U
+            // turned to the spatial frame, R (U - I) R^T; NaN for a degenerate F). eps, the
+            // strain itself, also gives a 2D point's out-of-plane component.
             Mat<D> eps, t;
-            if (stress && D == 3) {  // (3D stress needs no strain)
-                t = full(P.stress[p]);
-            } else if (P.deformation) {
-                Mat<D> R, U;
-                eps.setConstant(std::numeric_limits<double>::quiet_NaN());
-                t = eps;
-                if (polarDecomposition(P.deformationGradient[p], R, U)) {
-                    eps = U - Mat<D>::Identity();  // (MaterialPoints::strainOf)
-                    t = R * eps * R.transpose();
-                }
-            } else {
-                eps = t = full(P.strain[p]);
-            }
             if (stress) t = full(P.stress[p]);
+            if (!stress || D == 2) {
+                if (!P.deformation) {
+                    eps = full(P.strain[p]);
+                    if (!stress) t = eps;
+                } else {  // (MaterialPoints::strainOf, with R kept for the spatial frame)
+                    Mat<D> R, U;
+                    const bool ok = polarDecomposition(P.deformationGradient[p], R, U);
+                    eps = ok ? Mat<D>(U - Mat<D>::Identity()) : Mat<D>::Constant(std::numeric_limits<double>::quiet_NaN());
+                    if (!stress) t = ok ? Mat<D>(R * eps * R.transpose()) : eps;
+                }
+            }
             for (int i = 0; i < D; ++i)
                 for (int j = 0; j < D; ++j) out[9 * p + 3 * i + j] = t(i, j);
             if constexpr (D == 2) {
