@@ -8,6 +8,7 @@
 
 #include "ElasticMaterial.hpp"
 #include "Kinematics.hpp"
+#include "Laws.hpp"
 #include "PointTensor.hpp"
 
 namespace emp {
@@ -88,6 +89,23 @@ template <int D> struct MaterialPoints {
         Mat<D> R, U;
         if (!polarDecomposition(deformationGradient[p], R, U)) return Mat<D>::Constant(std::numeric_limits<double>::quiet_NaN());
         return U - Mat<D>::Identity();
+    }
+    /// Point p's Cauchy stress sigma = c sigma+ + sigma- (Eq 7) at its strain and damage, with
+    /// materials[material[p]]'s law: the co-rotational update's rotated back to the spatial
+    /// frame (Kinematics.hpp, cauchyStress), NaN for a degenerate F. Bitwise the stress the
+    /// step's force used (the same operations as the stress pass's lanes), and after erosion
+    /// (c = 0) sigma- alone.
+    Mat<D> stressOf(std::size_t p, const std::vector<ElasticMaterial>& materials) const
+    {
+        const ElasticMaterial& m = materials[material[p]];
+        if (!deformation) {
+            const LawResponse<D> r = lawResponse<D>(full(strain[p]), m);
+            return full(PointTensor<D>(Mat<D>(damage[p] * r.sigmaPlus + r.sigmaMinus)));
+        }
+        Mat<D> R, U;
+        if (!polarDecomposition(deformationGradient[p], R, U)) return Mat<D>::Constant(std::numeric_limits<double>::quiet_NaN());
+        const LawResponse<D> r = lawResponse<D>(Mat<D>(U - Mat<D>::Identity()), m);
+        return full(PointTensor<D>(cauchyStress<D>(R, U, damage[p] * r.sigmaPlus + r.sigmaMinus)));
     }
     /// m_p = rho V_p: computed, not stored (8 B per point less; bitwise the mass stored before,
     /// which was rho V_p as the point was added).

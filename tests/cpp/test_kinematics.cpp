@@ -216,10 +216,65 @@ template <int D> void checkCorotationalRuns()
 TEST(Kinematics, CorotationalRunsGiveEachPointItsOwnUpdateBitwise2D) { checkCorotationalRuns<2>(); }
 TEST(Kinematics, CorotationalRunsGiveEachPointItsOwnUpdateBitwise3D) { checkCorotationalRuns<3>(); }
 
+/// MaterialPoints::stressOf (what the outputs and erosion read) is bitwise the stress the step's
+/// force used, for every transfer and stress update, every registered law (blocks of
+/// different laws side by side, runs mixing them where they meet), damaged and eroded points:
+/// points of damage 0 and 0.5 from the start, and points eroded during the run.
+template <int D, class K> void checkStressOf(Transfer t, StressUpdate u)
+{
+    SCOPED_TRACE(std::string(t == Transfer::apic ? "APIC" : "FLIP") + (u == StressUpdate::corotational ? " corotational" : " small strain"));
+    Solver<D, K> s(settings(0.01, t, u));
+    const int numLaws = emp::RegisteredLaws::size;
+    std::vector<int> mats;
+    for (int l = 0; l < numLaws + 1; ++l)
+        mats.push_back(s.addMaterial(2e7 * (1 + 0.2 * l), 0.2 + 0.03 * l, 1000, l % 2 == 0, l % numLaws));
+    const auto vel = [](const Vec<D>& x) {
+        Vec<D> v = Vec<D>::Zero();
+        v[0] = -40 * (x[1] - 0.06) + 3 * std::sin(40 * x[1]) + 20 * (x[0] - 0.07);
+        v[1] = 40 * (x[0] - 0.075) + std::cos(30 * x[0]) - 0.5;
+        if (D == 3) v[D - 1] = 10 * (x[0] - 0.075) + std::sin(20 * x[1]);
+        return v;
+    };
+    const int width = 3, n = static_cast<int>(mats.size());
+    for (int b = 0; b < n; ++b) {
+        std::array<int, D> lo, hi;
+        lo.fill(3);
+        hi.fill(D == 2 ? 9 : 6);
+        lo[0] = 3 + width * b, hi[0] = 3 + width * (b + 1);
+        emptest::addBlock<D>(s, lo, hi, mats[b], vel);
+    }
+    auto erosion = std::make_shared<emp::EigenErosion<D>>(emp::ErosionSettings{D == 2 ? 25.0 : 4.0, 2.0, 0.011});
+    s.setErosion(erosion);
+    s.initialize();
+    auto& P = s.points();
+    for (std::size_t p = 0; p < P.size(); p += 7) P.damage[p] = 0.5 * (p % 2);
+    const double dt = 0.5 * s.criticalTimeStep();
+    for (int k = 0; k < 6; ++k) s.step(dt, 2);
+    int damaged = 0;
+    for (std::size_t p = 0; p < P.size(); ++p) {
+        const Mat<D> sigma = P.stressOf(p, s.materials());
+        for (int k = 0; k < D * D; ++k) ASSERT_EQ(bits(sigma(k)), bits(emp::full(P.stress[p])(k))) << "point " << p;
+        damaged += P.damage[p] < 1;
+    }
+    EXPECT_GT(erosion->erodedCount(), 0u);
+    EXPECT_LT(erosion->erodedCount(), P.size() / 4);
+    EXPECT_GT(damaged, static_cast<int>(erosion->erodedCount()));
+}
+
+
 // --- APIC: affine fields ------------------------------------------------------------------
 
 template <class C> class KinematicsTyped : public ::testing::Test {};
 TYPED_TEST_SUITE(KinematicsTyped, emptest::AllSolvers);
+
+TYPED_TEST(KinematicsTyped, StressOfIsTheStressTheStepUsed)
+{
+    constexpr int D = TypeParam::D;
+    using K = typename TypeParam::K;
+    for (Transfer t : {Transfer::flip, Transfer::apic})
+        for (StressUpdate u : {StressUpdate::smallStrain, StressUpdate::corotational})
+            if (t == Transfer::flip || K::affineTransfer) checkStressOf<D, K>(t, u);
+}
 
 /// A block with free faces and an interior crack carries v = a + A x (a rotation, a stretch
 /// and a shear): with APIC the first step's nodal velocities are a + A x_I at every node with
