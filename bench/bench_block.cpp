@@ -233,9 +233,10 @@ Options parse(int argc, char** argv)
     return o;
 }
 
-/// FNV-1a over the bytes of the point positions, velocities and stresses.
-template <int D> std::uint64_t checksum(const emp::MaterialPoints<D>& P)
+/// FNV-1a over the bytes of the point positions, velocities and stresses (stressOf: not stored).
+template <int D, class K> std::uint64_t checksum(const emp::Solver<D, K>& s)
 {
+    const auto& P = s.points();
     std::uint64_t h = 1469598103934665603ull;
     auto mix = [&](const double* d, std::size_t n) {
         const auto* b = reinterpret_cast<const unsigned char*>(d);
@@ -247,7 +248,7 @@ template <int D> std::uint64_t checksum(const emp::MaterialPoints<D>& P)
     for (std::size_t p = 0; p < P.size(); ++p) {
         mix(P.x[p].data(), D);
         mix(P.v[p].data(), D);
-        const emp::Mat<D> stress = emp::full(P.stress[p]);  // (all D x D components, as before Sym2)
+        const emp::Mat<D> stress = s.stressOf(p);  // (all D x D components, as before Sym2)
         mix(stress.data(), D * D);
     }
     return h;
@@ -355,9 +356,9 @@ Result runOnce(const std::string& name, const std::array<int, D>& n, int threads
         cpu += cpuSeconds() - c0;
         wall += std::chrono::duration<double>(Clock::now() - t0).count();
         ++steps;
-        if (checkAt > 0 && steps == checkAt) r.checksum = checksum(solver.points());
+        if (checkAt > 0 && steps == checkAt) r.checksum = checksum(solver);
     }
-    if (checkAt <= 0) r.checksum = checksum(solver.points());
+    if (checkAt <= 0) r.checksum = checksum(solver);
     if (o.mpi) {  // the whole scene: all ranks' points over the slowest rank's time
         double sums[1] = {static_cast<double>(solver.points().size())};
         double maxes[3] = {wall, cpu, (mpiTransport()->sent - sent0) / steps};
@@ -434,7 +435,7 @@ void runModes(const std::string& name, const std::array<int, D>& n, const Option
         r.cpu = cpu[m];
         r.pps = static_cast<double>(r.points) * steps / wall[m];
         r.ratio = 1;
-        r.checksum = checksum(solvers[m]->points());
+        r.checksum = checksum(*solvers[m]);
         r.mode = std::string(emp::name(o.modes[m].first)) + "+" + emp::name(o.modes[m].second);
         std::vector<double> ratios;
         for (std::size_t i = 0; i < perRound[m].size(); ++i) ratios.push_back(perRound[m][i] / perRound[0][i]);

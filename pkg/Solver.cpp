@@ -370,7 +370,7 @@ EMP_ALWAYS_INLINE void Solver<D, K>::updateStrain(const PassArrays& a, int p, co
     }
 }
 
-template <int D, class K> EMP_ALWAYS_INLINE void Solver<D, K>::lawAt(int p)
+template <int D, class K> EMP_ALWAYS_INLINE void Solver<D, K>::lawAt(int p, PointTensor<D>& sigma)
 {
     // The material's law (a compile-time policy, one switch per point): sigma = c sigma+ + sigma-
     // (Eq 7 with g(c) = c), psi+/psi- (Eqs 3-4) and the history H = max psi+ (Eq 22).
@@ -378,24 +378,24 @@ template <int D, class K> EMP_ALWAYS_INLINE void Solver<D, K>::lawAt(int p)
     const ElasticMaterial& m = materials_[P.material[p]];
     withLaw(m.law, [&](auto law) {
         const LawResponse<D> r = decltype(law)::template response<D>(full(P.strain[p]), m);
-        store(P.stress[p], P.damage[p] * r.sigmaPlus + r.sigmaMinus);
+        store(sigma, P.damage[p] * r.sigmaPlus + r.sigmaMinus);
         P.energy[p] = P.damage[p] * r.psiPlus + r.psiMinus;
         P.history[p] = std::max(P.history[p], r.psiPlus);
     });
 }
 
-template <int D, class K> EMP_ALWAYS_INLINE void Solver<D, K>::lawOfRun(const int* ids, int n)
+template <int D, class K> EMP_ALWAYS_INLINE void Solver<D, K>::lawOfRun(const int* ids, int n, PointTensor<D>* sigma)
 {
     // The law for a run of points. In 2D, when the run's points share a law with the pointwise
     // response (Law.hpp, response2), the law runs as one vectorised loop over the run: each lane
     // takes one point through the same operations, so the results are bitwise those of lawAt,
     // while the points' square roots and divisions go through the processor side by side.
     if constexpr (D == 2) {
-        if (withSharedPointwiseLaw(ids, n, [&](auto l) { lawOfRun2<decltype(l)>(ids, n); })) return;
+        if (withSharedPointwiseLaw(ids, n, [&](auto l) { lawOfRun2<decltype(l)>(ids, n, sigma); })) return;
     } else {
-        if (withSharedPointwiseLaw(ids, n, [&](auto l) { lawOfRun3<decltype(l)>(ids, n); })) return;
+        if (withSharedPointwiseLaw(ids, n, [&](auto l) { lawOfRun3<decltype(l)>(ids, n, sigma); })) return;
     }
-    for (int i = 0; i < n; ++i) lawAt(ids[i]);
+    for (int i = 0; i < n; ++i) lawAt(ids[i], sigma[i]);
 }
 
 template <int D, class K>
@@ -444,7 +444,7 @@ EMP_ALWAYS_INLINE void Solver<D, K>::storeEnergies(int p, double c, double psiPl
 
 template <int D, class K>
 template <class Law>
-EMP_ALWAYS_INLINE void Solver<D, K>::lawOfRun2(const int* ids, int n)
+EMP_ALWAYS_INLINE void Solver<D, K>::lawOfRun2(const int* ids, int n, PointTensor<D>* out)
 {
     auto& P = points_;
     alignas(64) double e[4][stressRun], c[stressRun], lambda[stressRun], mu[stressRun];
@@ -464,14 +464,14 @@ EMP_ALWAYS_INLINE void Solver<D, K>::lawOfRun2(const int* ids, int n)
     });
     for (int i = 0; i < n; ++i) {
         const int p = ids[i];
-        P.stress[p] = Sym2::of(sigma[0][i], sigma[1][i], sigma[2][i], sigma[3][i]);
+        out[i] = Sym2::of(sigma[0][i], sigma[1][i], sigma[2][i], sigma[3][i]);
         storeEnergies(p, c[i], psiPlus[i], psiMinus[i]);
     }
 }
 
 template <int D, class K>
 template <class Law>
-EMP_ALWAYS_INLINE void Solver<D, K>::lawOfRun3(const int* ids, int n)
+EMP_ALWAYS_INLINE void Solver<D, K>::lawOfRun3(const int* ids, int n, PointTensor<D>* out)
 {
     // lawOfRun2 in 3D: the run's symmetric strains (lower triangles) through the law's response3
     // in one vectorised loop; a point it calls not ordinary (Law.hpp) through lawAt, which gives
@@ -501,10 +501,10 @@ EMP_ALWAYS_INLINE void Solver<D, K>::lawOfRun3(const int* ids, int n)
         for (int i = 0; i < n; ++i) {
             const int p = ids[i];
             if (ordinary[i] != 1.0) {
-                lawAt(p);
+                lawAt(p, out[i]);
                 continue;
             }
-            Mat<3>& S = P.stress[p];
+            Mat<3>& S = out[i];
             S(0, 0) = sigma[0][i];
             S(1, 1) = sigma[1][i];
             S(2, 2) = sigma[2][i];
@@ -516,7 +516,7 @@ EMP_ALWAYS_INLINE void Solver<D, K>::lawOfRun3(const int* ids, int n)
     }
 }
 
-template <int D, class K> EMP_ALWAYS_INLINE void Solver<D, K>::corotationalStress(int p)
+template <int D, class K> EMP_ALWAYS_INLINE void Solver<D, K>::corotationalStress(int p, PointTensor<D>& sigma)
 {
     // F = R U; the law and its split on eps = U - I (Eq 7, 3-4, 22 unchanged in the co-rotated
     // frame); the stress rotated back (Kinematics.hpp). A degenerate F (inverted or collapsed
@@ -524,29 +524,30 @@ template <int D, class K> EMP_ALWAYS_INLINE void Solver<D, K>::corotationalStres
     auto& P = points_;
     Mat<D> R, U;
     if (!polarDecomposition(P.deformationGradient[p], R, U)) {
-        P.stress[p].setConstant(std::numeric_limits<double>::quiet_NaN());
+        sigma.setConstant(std::numeric_limits<double>::quiet_NaN());
         return;
     }
     const Mat<D> eps = U - Mat<D>::Identity();  // (not stored: MaterialPoints::strainOf)
     const ElasticMaterial& m = materials_[P.material[p]];
     withLaw(m.law, [&](auto law) {
         const LawResponse<D> r = decltype(law)::template response<D>(eps, m);
-        P.stress[p] = cauchyStress<D>(R, U, P.damage[p] * r.sigmaPlus + r.sigmaMinus);
+        sigma = cauchyStress<D>(R, U, P.damage[p] * r.sigmaPlus + r.sigmaMinus);
         P.energy[p] = P.damage[p] * r.psiPlus + r.psiMinus;
         P.history[p] = std::max(P.history[p], r.psiPlus);
     });
 }
 
 template <int D, class K>
-EMP_ALWAYS_INLINE void Solver<D, K>::corotationalOfRun(const int* ids, const St* st, int n, double dt, double* J)
+EMP_ALWAYS_INLINE void Solver<D, K>::corotationalOfRun(const int* ids, const St* st, int n, double dt, double* J,
+                                                        PointTensor<D>* sigma)
 {
     // As lawOfRun: in 2D, a run whose points share a law with the pointwise response goes
     // through the whole update (deformation gradient, polar decomposition, law, Cauchy stress) as
     // one vectorised loop; otherwise point by point.
     if constexpr (D == 2) {
-        if (withSharedPointwiseLaw(ids, n, [&](auto l) { corotationalOfRun2<decltype(l)>(ids, st, n, dt, J); })) return;
+        if (withSharedPointwiseLaw(ids, n, [&](auto l) { corotationalOfRun2<decltype(l)>(ids, st, n, dt, J, sigma); })) return;
     } else {
-        corotationalOfRun3(ids, st, n, dt, J);
+        corotationalOfRun3(ids, st, n, dt, J, sigma);
         return;
     }
     // Point by point: the run's velocity gradients first (one tight loop of stencil sums, as in
@@ -560,13 +561,14 @@ EMP_ALWAYS_INLINE void Solver<D, K>::corotationalOfRun(const int* ids, const St*
         Mat<D>& F = points_.deformationGradient[ids[i]];
         F = (Mat<D>::Identity() - dt * L[i]).inverse() * F;
         J[i] = F.determinant();
-        corotationalStress(ids[i]);
+        corotationalStress(ids[i], sigma[i]);
     }
 }
 
 template <int D, class K>
 template <class Law>
-EMP_ALWAYS_INLINE void Solver<D, K>::corotationalOfRun2(const int* ids, const St* st, int n, double dt, double* J)
+EMP_ALWAYS_INLINE void Solver<D, K>::corotationalOfRun2(const int* ids, const St* st, int n, double dt, double* J,
+                                                         PointTensor<D>* out)
 {
     // corotationalOfRun's point-by-point update for n points, each lane one point through the
     // same operations: the velocity gradients first (stencil sums, point by point), then the
@@ -612,16 +614,17 @@ EMP_ALWAYS_INLINE void Solver<D, K>::corotationalOfRun2(const int* ids, const St
         const int p = ids[i];
         P.deformationGradient[p] << f[0][i], f[1][i], f[2][i], f[3][i];
         if (ok[i] == 0) {  // a degenerate F: NaN stress, reported by the step's check (corotationalStress)
-            P.stress[p].setConstant(std::numeric_limits<double>::quiet_NaN());
+            out[i].setConstant(std::numeric_limits<double>::quiet_NaN());
             continue;
         }
-        P.stress[p] = Sym2::of(sigma[0][i], sigma[1][i], sigma[2][i], sigma[3][i]);
+        out[i] = Sym2::of(sigma[0][i], sigma[1][i], sigma[2][i], sigma[3][i]);
         storeEnergies(p, c[i], psiPlus[i], psiMinus[i]);
     }
 }
 
 template <int D, class K>
-EMP_NOINLINE void Solver<D, K>::corotationalOfRun3(const int* ids, const St* st, int n, double dt, double* J)
+EMP_NOINLINE void Solver<D, K>::corotationalOfRun3(const int* ids, const St* st, int n, double dt, double* J,
+                                                   PointTensor<D>* out)
 {
     // corotationalOfRun's point-by-point update for n 3D points, its algebra lane by lane as in
     // corotationalOfRun2. The polar decomposition's Newton iteration runs over all lanes until the last
@@ -721,7 +724,7 @@ EMP_NOINLINE void Solver<D, K>::corotationalOfRun3(const int* ids, const St* st,
             const int p = ids[i];
             for (int k = 0; k < 9; ++k) P.deformationGradient[p](k / 3, k % 3) = f[k][i];
             if (state[i] != 2.0) {  // a degenerate F: NaN stress, reported by the step's check
-                P.stress[p].setConstant(std::numeric_limits<double>::quiet_NaN());
+                out[i].setConstant(std::numeric_limits<double>::quiet_NaN());
                 for (int k = 0; k < 9; ++k) sig[k][i] = 0;  // (the lane's Cauchy stress is not used)
             }
         }
@@ -760,20 +763,14 @@ EMP_NOINLINE void Solver<D, K>::corotationalOfRun3(const int* ids, const St* st,
         for (int i = 0; i < n; ++i) store(sig, i, cauchyStress3(load(r, i), load(u, i), load(sig, i)));
         for (int i = 0; i < n; ++i)
             if (state[i] == 2.0)
-                for (int k = 0; k < 9; ++k) P.stress[ids[i]](k / 3, k % 3) = sig[k][i];
+                for (int k = 0; k < 9; ++k) out[i](k / 3, k % 3) = sig[k][i];
     });
-}
-
-template <int D, class K> Mat<D> Solver<D, K>::spatialStress(int p, const Mat<D>& s) const
-{
-    Mat<D> R, U;
-    if (!polarDecomposition(points_.deformationGradient[p], R, U)) return Mat<D>::Constant(std::numeric_limits<double>::quiet_NaN());
-    return cauchyStress<D>(R, U, s);
 }
 
 template <int D, class K>
 template <bool withGravity, bool corotational>
-EMP_ALWAYS_INLINE void Solver<D, K>::scatterInternalForce(const PassArrays& a, int p, const St& st, const Vec<D>& gravity, double J)
+EMP_ALWAYS_INLINE void Solver<D, K>::scatterInternalForce(const PassArrays& a, int p, const St& st, const PointTensor<D>& sigma,
+                                                           const Vec<D>& gravity, double J)
 {
     // f_I += N_I m_p b - V_p sigma_p grad N_I (Eqs 13-14). Without gravity the body force term
     // is left out (the same sums: f + (0 - x) is f - x in floating point). The co-rotational
@@ -781,7 +778,7 @@ EMP_ALWAYS_INLINE void Solver<D, K>::scatterInternalForce(const PassArrays& a, i
     const auto& g = grid_;
     const auto& P = a.P;
     const double volume = corotational ? P.volume[p] * J : P.volume[p];
-    const Mat<D> vs = volume * full(P.stress[p]);
+    const Mat<D> vs = volume * full(sigma);
     if (st.regular()) {  // (the same sums by rows: Stencil::forEachRowProjected)
         const Vec<D> fb = withGravity ? Vec<D>(P.mass(p) * gravity) : Vec<D>::Zero();
         st.forEachRowProjected(g, vs, [&](int I0, const double* N, const double* t) EMP_LAMBDA_INLINE {
@@ -806,7 +803,8 @@ EMP_ALWAYS_INLINE void Solver<D, K>::scatterInternalForce(const PassArrays& a, i
 template <int D, class K> void Solver<D, K>::stressAndInternalForce(double dt, int nThreads)
 {
     // In runs of points (Scheduler::scatterRuns): the strains of a run, its law (lawOfRun), then
-    // its forces. The run's stencils stay in the L1 cache between the loops.
+    // its forces. The run's stencils stay in the L1 cache between the loops, and so do its
+    // stresses, which are not stored (MaterialPoints::stressOf gives them again).
     const Vec<D> gravity = settings_.gravity.head<D>();
     const auto& order = schedule_.order();
     const std::vector<NodeField> fields{{grid_.force.data()->data(), D}};
@@ -815,8 +813,9 @@ template <int D, class K> void Solver<D, K>::stressAndInternalForce(double dt, i
     const auto pass = [&](auto withGravity, auto corotational) {
         schedule_.scatterRuns(nThreads, stressRun, [&](int begin, int end) {
             double J[stressRun];  // (the co-rotational update's det F, for the current volume)
+            PointTensor<D> sigma[stressRun];
             if constexpr (decltype(corotational)::value) {
-                corotationalOfRun(&order[begin], &stencil_[begin], end - begin, dt, J);
+                corotationalOfRun(&order[begin], &stencil_[begin], end - begin, dt, J, sigma);
             } else {
                 const auto strains = [&]() EMP_LAMBDA_INLINE {
                     const PassArrays a = passArrays();
@@ -824,19 +823,20 @@ template <int D, class K> void Solver<D, K>::stressAndInternalForce(double dt, i
                     for (int k = begin; k < end; ++k) updateStrain(a, a.order[k], a.stencil[k], step, invh);
                 };
                 withLaneIsa(strains);  // (the gradients' 4-lane sums in the lanes' width)
-                lawOfRun(&order[begin], end - begin);
+                lawOfRun(&order[begin], end - begin, sigma);
             }
             withLaneIsa([&]() EMP_LAMBDA_INLINE {  // (the rows' loops in the lanes' width)
                 const PassArrays a = passArrays();
                 for (int k = begin; k < end; ++k)
                     scatterInternalForce<decltype(withGravity)::value, decltype(corotational)::value>(
-                        a, a.order[k], a.stencil[k], gravity, decltype(corotational)::value ? J[k - begin] : 0.0);
+                        a, a.order[k], a.stencil[k], sigma[k - begin], gravity, decltype(corotational)::value ? J[k - begin] : 0.0);
             });
-            // The run's stresses, still in the L1 cache, checked: their sum is finite unless one
-            // is not (G2P's check reports the point).
+            // The run's stresses checked: their sum is finite unless one is not (G2P's check
+            // reports the point).
             double sum = 0;
-            for (int k = begin; k < end; ++k) sum += sumOf(points_.stress[order[k]]);
+            for (int i = 0; i < end - begin; ++i) sum += sumOf(sigma[i]);
             if (!std::isfinite(sum)) __atomic_store_n(&stressNonFinite_, 1, __ATOMIC_RELAXED);
+            if (stressObserver_) stressObserver_(&order[begin], end - begin, sigma);
         }, between);
     };
     stressNonFinite_ = 0;
@@ -893,11 +893,9 @@ template <int D, class K> void Solver<D, K>::erode(double dt, int nThreads)
         St scratch;
         const St& st = stepStencil(p, scratch);
         double volume = points_.volume[p];
-        if (corotational) {  // erosion set sigma- of the co-rotated strain: rotate it back
-            points_.stress[p] = spatialStress(p, full(points_.stress[p]));
-            volume *= points_.deformationGradient[p].determinant();
-        }
-        const Mat<D> dvs = volume * (full(points_.stress[p]) - before[e]);
+        if (corotational) volume *= points_.deformationGradient[p].determinant();
+        // sigma- now (c = 0; the co-rotational update's rotated back), less the stress the force used
+        const Mat<D> dvs = volume * (points_.stressOf(p, materials_) - before[e]);
         const std::int64_t id = dist_ ? points_.globalId[p] : p;
         st.forEachProjected(g, dvs, [&](int I, double, const Vec<D>& dvsGrad) { addNodeForce(I, -dvsGrad, 0, id); });
     }
@@ -1197,7 +1195,7 @@ template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThre
     if (nonFinite > 0) {
         int first = INT_MAX;
         for (std::size_t p = 0; p < P0.size() && first == INT_MAX; ++p)
-            if (!P0.v[p].allFinite() || !P0.x[p].allFinite() || !P0.stress[p].allFinite()) first = static_cast<int>(p);
+            if (!P0.v[p].allFinite() || !P0.x[p].allFinite() || !P0.stressOf(p, materials_).allFinite()) first = static_cast<int>(p);
         if (dist_ && first == INT_MAX)
             throw SimulationError("EigenMPM: a non-finite value appeared in step " + std::to_string(steps_) +
                                   " on another rank (its message names the point)");

@@ -7,6 +7,7 @@
 #pragma once
 #include <Eigen/Dense>
 #include <cstdint>
+#include <functional>
 #include <istream>
 #include <ostream>
 #include <limits>
@@ -218,6 +219,13 @@ public:
     MaterialPoints<D>& points() { return points_; }
     const Grid<D>& grid() const { return grid_; }
     const std::vector<ElasticMaterial>& materials() const { return materials_; }
+    /// Point p's Cauchy stress (not stored: MaterialPoints::stressOf).
+    Mat<D> stressOf(std::size_t p) const { return points_.stressOf(p, materials_); }
+    /// The stresses as the stress pass makes them, for tests of stressOf and of the pass's
+    /// vectorised laws: f(ids, n, sigma) for each run of n points ids (sigma[i] that of ids[i]),
+    /// from the pass's threads (each point once a step); an empty f stops it.
+    using StressObserver = std::function<void(const int* ids, int n, const PointTensor<D>* sigma)>;
+    void observeStresses(StressObserver f) { stressObserver_ = std::move(f); }
     const SolverSettings& settings() const { return settings_; }
     const std::vector<TractionCondition>& tractions() const { return tractions_; }
     /// The velocity conditions by id (reaction(id)), and every grid condition in order.
@@ -287,42 +295,44 @@ private:
     Mat<D> velocityGradient(int p, const St& st) const;
     /// The strain increment of point p (small strain); invh = 1 / h.
     void updateStrain(const PassArrays& a, int p, const St& st, double dt, double invh);
-    /// The law at point p: stress, psi+, psi-, history.
-    void lawAt(int p);
-    /// The law at the n <= stressRun points ids (lawAt for each, or lawOfRun2 / lawOfRun3).
-    void lawOfRun(const int* ids, int n);
+    /// The law at point p: its stress into sigma; psi+, psi- and history stored.
+    void lawAt(int p, PointTensor<D>& sigma);
+    /// The law at the n <= stressRun points ids (lawAt for each, or lawOfRun2 / lawOfRun3): the
+    /// stress of point ids[i] into sigma[i] (the run's, not stored: MaterialPoints::stressOf).
+    void lawOfRun(const int* ids, int n, PointTensor<D>* sigma);
     /// A run's lanes of the law: the damage c and the material's Lame constants of the n points
     /// ids in (lawInputs), then each point's energy c psi+ + psi- and history max(H, psi+)
     /// (Eq 22) out (storeEnergies).
     void lawInputs(const int* ids, int n, double* c, double* lambda, double* mu) const;
     void storeEnergies(int p, double c, double psiPlus, double psiMinus);
     /// The law at n points at once, through the law's pointwise 2D response (Law.hpp).
-    template <class Law> void lawOfRun2(const int* ids, int n);
+    template <class Law> void lawOfRun2(const int* ids, int n, PointTensor<D>* sigma);
     /// The same in 3D (response3); the points it calls not ordinary through lawAt.
-    template <class Law> void lawOfRun3(const int* ids, int n);
+    template <class Law> void lawOfRun3(const int* ids, int n, PointTensor<D>* sigma);
     /// The co-rotational update's stress of point p from its deformation gradient (Kinematics.hpp).
-    void corotationalStress(int p);
+    void corotationalStress(int p, PointTensor<D>& sigma);
     /// The co-rotational update of the n <= stressRun points ids with stencils st (point by
     /// point: F, then corotationalStress; or corotationalOfRun2, corotationalOfRun3). J[i] gets
     /// det F of point ids[i], as Eigen's determinant() of its new F gives it (the force pass's
-    /// volume, scatterInternalForce).
-    void corotationalOfRun(const int* ids, const St* st, int n, double dt, double* J);
+    /// volume, scatterInternalForce); sigma[i] its stress.
+    void corotationalOfRun(const int* ids, const St* st, int n, double dt, double* J, PointTensor<D>* sigma);
     /// The same for n 2D points at once, on plain numbers (Kinematics.hpp, Plain2) and the law's
     /// pointwise response: bitwise the per-point update.
-    template <class Law> void corotationalOfRun2(const int* ids, const St* st, int n, double dt, double* J);
+    template <class Law>
+    void corotationalOfRun2(const int* ids, const St* st, int n, double dt, double* J, PointTensor<D>* sigma);
     /// The same for n 3D points: the algebra (F, polar decomposition, Cauchy stress) in
     /// vectorised loops on plain numbers (Kinematics.hpp, Plain3), the law through its response3
     /// where the points share one (else point by point). Bitwise the per-point update.
-    void corotationalOfRun3(const int* ids, const St* st, int n, double dt, double* J);
+    void corotationalOfRun3(const int* ids, const St* st, int n, double dt, double* J, PointTensor<D>* sigma);
     /// When the n points ids share a law with the pointwise response of dimension D (Law.hpp,
     /// response2 or response3): f(law) and true; otherwise false.
     template <class F> bool withSharedPointwiseLaw(const int* ids, int n, F&& f);
-    /// The Cauchy stress R s U R^T / J of a co-rotated stress s at point p's deformation gradient.
-    Mat<D> spatialStress(int p, const Mat<D>& s) const;
-    /// f_I += N_I m_p b - V sigma_p grad N_I; V is the current volume J V_p with the
-    /// co-rotational update (J: det F from corotationalOfRun), else V_p (J unused).
+    /// f_I += N_I m_p b - V sigma_p grad N_I (sigma_p: the law's in this pass); V is the current
+    /// volume J V_p with the co-rotational update (J: det F from corotationalOfRun), else V_p (J
+    /// unused).
     template <bool withGravity, bool corotational>
-    void scatterInternalForce(const PassArrays& a, int p, const St& st, const Vec<D>& gravity, double J);
+    void scatterInternalForce(const PassArrays& a, int p, const St& st, const PointTensor<D>& sigma, const Vec<D>& gravity,
+                              double J);
     /// The stencil of one point computed on its own (serial stages: erosion, tractions).
     St stencilOf(int p);
     /// Maps point p's support onto the twins of this step (across the cracks, or its body's)
@@ -418,6 +428,7 @@ private:
     /// then names the point. (Checked where the stress is in the cache: G2P reading every point's
     /// stress again for its check cost the 2D step 4 %, doc/performance.md "Session 38".)
     int stressNonFinite_ = 0;
+    StressObserver stressObserver_;  ///< observeStresses
     double kineticAtStep_ = 0, tractionWork_ = 0, gravityWork_ = 0, contactWork_ = 0;
     std::int64_t steps_ = 0;
 };

@@ -11,7 +11,7 @@ namespace emp {
 
 namespace {
 const char* kFormat = "EigenMPM solver state";
-constexpr std::uint32_t kVersion = 9;  // 2: transfer, stress update, energy diagnostics; 3: contact work, crack-face contact;
+constexpr std::uint32_t kVersion = 10;  // 2: transfer, stress update, energy diagnostics; 3: contact work, crack-face contact;
                                        // 4: bodies in one grid (point body ids, their friction); 5: a rank's part
                                        // of a distributed run (its flag, point ids, the ranks' strips); 6: the
                                        // points' reference positions of a run distributed at set-up; 7: the
@@ -19,7 +19,8 @@ constexpr std::uint32_t kVersion = 9;  // 2: transfer, stress update, energy dia
                                        // point's strain and stress as symmetric tensors (three numbers), and
                                        // no mass array (a point's mass is rho V), and the elastic energy
                                        // density c psi+ + psi- in place of psi+ and psi-; 9: no strain
-                                       // array with the co-rotational update (its strain follows from F)
+                                       // array with the co-rotational update (its strain follows from F); 10:
+                                       // no stress array (it follows from the strain or F and the damage)
 
 /// A point array as saved; before version 8 a 2D strain or stress was a full 2 x 2 matrix.
 template <class T> void readPointArray(ArchiveReader& r, int version, std::vector<T>& a)
@@ -231,6 +232,12 @@ template <int D, class K> std::shared_ptr<Solver<D, K>> Solver<D, K>::loadState(
             r.expect("mass");
             std::vector<double> mass;
             r.array(mass);
+        }
+        if (h.version < 10 && std::string(name) == "energy") {  // (the stress until 10, before the energy)
+            r.expect("stress");
+            std::vector<PointTensor<D>> stored;
+            readPointArray(r, h.version, stored);
+            if (stored.size() != s->points_.size()) r.fail("a point array 'stress' of another length");
         }
         if (h.version < 8 && std::string(name) == "energy") {  // (psi+ and psi- until 8: c psi+ + psi- now)
             r.expect("psiPlus");

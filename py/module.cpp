@@ -901,7 +901,7 @@ template <class Sv> struct Bind {
             // turned to the spatial frame, R (U - I) R^T; NaN for a degenerate F). eps, the
             // strain itself, also gives a 2D point's out-of-plane component.
             Mat<D> eps, t;
-            if (stress) t = full(P.stress[p]);
+            if (stress) t = P.stressOf(p, s.materials());  // (not stored: MaterialPoints::stressOf)
             if (!stress || D == 2) {
                 if (!P.deformation) {
                     eps = full(P.strain[p]);

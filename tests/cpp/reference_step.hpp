@@ -21,6 +21,7 @@ using emp::Vec;
 
 template <int D, class K> struct ReferenceScene {
     emp::MaterialPoints<D> P;
+    std::vector<Mat<D>> stress;  ///< each point's stress, kept (the solver's points do not store it)
     emp::Grid<D> g;
     emp::PhantomNodes<D> cracks;
     std::vector<emp::ElasticMaterial> materials;
@@ -38,6 +39,7 @@ template <int D, class K> struct ReferenceScene {
           tractions(s.tractions()), gravity(s.settings().gravity.template head<D>()), lp(s.halfWidth()),
           massCutoff(s.massCutoffAbsolute()), time(s.time())
     {
+        for (std::size_t p = 0; p < P.size(); ++p) stress.push_back(s.stressOf(p));
         for (const auto& c : s.velocityConditions())
             conditions.push_back(std::make_shared<emp::VelocityCondition<D>>(*c));
         if (s.erosion()) {
@@ -119,7 +121,7 @@ template <int D, class K> void referenceStep(ReferenceScene<D, K>& s, double dt)
         }
         P.strain[p] += Mat<D>(0.5 * dt * (L + L.transpose()));
         const auto r = emp::lawResponse<D>(emp::full(P.strain[p]), s.materials[P.material[p]]);
-        emp::store(P.stress[p], P.damage[p] * r.sigmaPlus + r.sigmaMinus);
+        s.stress[p] = emp::full(emp::PointTensor<D>(Mat<D>(P.damage[p] * r.sigmaPlus + r.sigmaMinus)));
         P.energy[p] = P.damage[p] * r.psiPlus + r.psiMinus;
         P.history[p] = std::max(P.history[p], r.psiPlus);
     }
@@ -139,13 +141,13 @@ template <int D, class K> void referenceStep(ReferenceScene<D, K>& s, double dt)
         }
         for (int p : eroding) {
             P.damage[p] = 0.0;
-            P.stress[p] = emp::lawResponse<D>(emp::full(P.strain[p]), s.materials[P.material[p]]).sigmaMinus;
+            s.stress[p] = emp::full(emp::PointTensor<D>(emp::lawResponse<D>(emp::full(P.strain[p]), s.materials[P.material[p]]).sigmaMinus));
             s.dissipated += e.Gc / (2.0 * e.kappa) * P.volume[p];  // Eq 33
         }
     }
     // (5) Internal and body force (Eqs 13-14), traction (Eq 28), conditions on the forces.
     for (int p = 0; p < np; ++p)
-        for (const auto& n : sup[p]) g.force[n.I] += n.N * P.mass(p) * s.gravity - P.volume[p] * emp::full(P.stress[p]) * n.grad;
+        for (const auto& n : sup[p]) g.force[n.I] += n.N * P.mass(p) * s.gravity - P.volume[p] * s.stress[p] * n.grad;
     for (const auto& t : s.tractions)
         for (int p : t.points) {
             const Vec<D> tr = (emp::rampFactor(s.time, t.rampTime) * t.traction).template head<D>();

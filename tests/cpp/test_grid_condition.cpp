@@ -119,7 +119,7 @@ TYPED_TEST(GridConditionTest, ConditionWrittenOutsideTheCoreActsLikeTheBuiltInOn
     }
     for (std::size_t p = 0; p < a->points().size(); ++p) {
         EXPECT_EQ(a->points().x[p], b->points().x[p]) << "point " << p;
-        EXPECT_EQ(emp::full(a->points().stress[p]), emp::full(b->points().stress[p])) << "point " << p;
+        EXPECT_EQ(a->stressOf(p), b->stressOf(p)) << "point " << p;
     }
     // The condition does act: without it the block moves differently.
     auto c = wavyBlock<D, K>();

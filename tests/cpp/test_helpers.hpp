@@ -29,6 +29,27 @@ inline std::uint64_t bits(double x)
     return b;
 }
 
+/// Every point's stress (Solver::stressOf: not stored), by point id.
+template <class Sv> std::vector<Mat<Sv::dim>> stressesOf(const Sv& s)
+{
+    std::vector<Mat<Sv::dim>> out(s.points().size());
+    for (std::size_t p = 0; p < out.size(); ++p) out[p] = s.stressOf(p);
+    return out;
+}
+
+/// The stresses as s's stress pass makes them (Solver::observeStresses), by point id, from the
+/// next step on (each step's replace the last's; NaN until a step); for tests of the pass's
+/// vectorised laws and of stressOf. The points must have been added.
+template <class Sv> std::shared_ptr<std::vector<Mat<Sv::dim>>> recordStresses(Sv& s)
+{
+    constexpr int D = Sv::dim;
+    auto out = std::make_shared<std::vector<Mat<D>>>(s.points().size(), Mat<D>::Constant(std::numeric_limits<double>::quiet_NaN()));
+    s.observeStresses([o = out.get()](const int* ids, int n, const emp::PointTensor<D>* sigma) {
+        for (int i = 0; i < n; ++i) (*o)[ids[i]] = emp::full(sigma[i]);
+    });
+    return out;
+}
+
 /// A (dimension, shape function) pair for typed tests.
 template <int D_, class K_> struct Config {
     static constexpr int D = D_;

@@ -227,7 +227,7 @@ TYPED_TEST(StabilityTyped, BodyCrossingManyCellsTranslatesRigidlyForPpc1To4)
             ASSERT_NO_THROW(s.step(0.5 * s.criticalTimeStep(), 1)) << name<D, K>() << " ppc " << ppc;
             const auto& P = s.points();
             for (std::size_t p = 0; p < P.size(); ++p) {
-                worstStress = std::max(worstStress, emp::full(P.stress[p]).norm());
+                worstStress = std::max(worstStress, s.stressOf(p).norm());
                 worstX = std::max(worstX, (P.x[p] - x0[p] - s.time() * v).norm());
                 worstV = std::max(worstV, (P.v[p] - v).norm());
             }
@@ -523,7 +523,7 @@ TYPED_TEST(StabilityTyped, PointsExactlyOnNodesAndCellFaces)
         double worstX = 0, worstS = 0;
         for (std::size_t p = 0; p < x0.size(); ++p) {
             worstX = std::max(worstX, (s.points().x[p] - x0[p] - s.time() * v).norm());
-            worstS = std::max(worstS, emp::full(s.points().stress[p]).norm());
+            worstS = std::max(worstS, s.stressOf(p).norm());
         }
         EXPECT_LT(worstX, 1e-13) << name<D, K>() << " ppc " << ppc;
         EXPECT_LT(worstS, 1e-10 * 1e7 * v.norm() / s.materials()[0].waveSpeed()) << name<D, K>() << " ppc " << ppc;
@@ -732,11 +732,11 @@ TYPED_TEST(StabilityTyped, NoPhantomNodeWorkWithoutCracks)
 }
 
 /// A 2D solver is a separate instantiation with 2D kernels: its stencil has S^2 nodes, its
-/// points and grid store 2-vectors and symmetric 2x2 tensors (compile-time facts, checked here).
+/// points and grid store 2-vectors and symmetric 2x2 strains (compile-time facts, checked here).
 static_assert(emp::Solver<2, emp::GimpKernel>::dim == 2 && emp::Solver<2, emp::LinearKernel>::dim == 2, "2D solvers are 2D");
 static_assert(emp::Solver<2, emp::GimpKernel>::S == 3 && emp::Solver<2, emp::LinearKernel>::S == 2, "1D supports");
 static_assert(std::is_same<decltype(emp::MaterialPoints<2>::x)::value_type, Vec<2>>::value, "2D positions");
-static_assert(std::is_same<decltype(emp::MaterialPoints<2>::stress)::value_type, emp::Sym2>::value, "2D stress");
+static_assert(std::is_same<decltype(emp::MaterialPoints<2>::strain)::value_type, emp::Sym2>::value, "2D strain");
 static_assert(std::is_same<decltype(emp::Grid<2>::velocity)::value_type, Vec<2>>::value, "2D nodal velocity");
 
 }  // namespace

@@ -60,7 +60,7 @@ Outcome compare(const emp::SolverSettings& settings, const Build<D, K>& build, i
     const auto& R = one.points();
     for (std::size_t p = 0; p < P.size(); ++p) {
         const int q = P.globalId[p];
-        const bool same = sameBits(P.x[p], R.x[q]) && sameBits(P.v[p], R.v[q]) && sameBits(emp::full(P.stress[p]), emp::full(R.stress[q])) &&
+        const bool same = sameBits(P.x[p], R.x[q]) && sameBits(P.v[p], R.v[q]) && sameBits(dist.stressOf(p), one.stressOf(q)) &&
                           sameBits(P.strainOf(p), R.strainOf(q)) && sameBits(P.damage[p], R.damage[q]) &&
                           sameBits(P.history[p], R.history[q]);
         ++o.compared;
@@ -281,7 +281,7 @@ void saveAndResume(int columnCells, int rankColumns)
     int differing = 0;
     for (std::size_t p = 0; p < a.points().size(); ++p)
         differing += !(sameBits(a.points().x[p], b->points().x[p]) && sameBits(a.points().v[p], b->points().v[p]) &&
-                       sameBits(emp::full(a.points().stress[p]), emp::full(b->points().stress[p])) &&
+                       sameBits(a.stressOf(p), b->stressOf(p)) &&
                        a.points().globalId[p] == b->points().globalId[p] && sameBits(a.points().damage[p], b->points().damage[p]));
     EXPECT_EQ(differing, 0);
     EXPECT_EQ(a.erosion()->erodedCount(), b->erosion()->erodedCount());
@@ -576,7 +576,7 @@ void distributedAtSetUp(int columnCells, int rankColumns)
     int differing = 0;
     for (std::size_t p = 0; p < P.size(); ++p) {
         const int q = P.globalId[p];
-        differing += !(sameBits(P.x[p], R.x[q]) && sameBits(P.v[p], R.v[q]) && sameBits(emp::full(P.stress[p]), emp::full(R.stress[q])) &&
+        differing += !(sameBits(P.x[p], R.x[q]) && sameBits(P.v[p], R.v[q]) && sameBits(held.stressOf(p), one.stressOf(q)) &&
                        sameBits(P.reference[p], added(q)));
     }
     EXPECT_EQ(differing, 0);
