@@ -30,7 +30,8 @@ template <int D> struct PointsView {
     Mat<D>* affineVelocity;
     Mat<D>* deformationGradient;
     const double* density;
-    double mass(std::size_t p) const { return density[material[p]] * volume[p]; }
+    bool oneMaterial;  ///< one material: its density without the point's material id
+    double mass(std::size_t p) const { return (oneMaterial ? density[0] : density[material[p]]) * volume[p]; }
 };
 
 template <int D> struct MaterialPoints {
@@ -75,7 +76,7 @@ template <int D> struct MaterialPoints {
     {
         return {x.data(),       v.data(),      volume.data(),   strain.data(),         energy.data(),
                 history.data(), damage.data(), material.data(), affineVelocity.data(), deformationGradient.data(),
-                density.data()};
+                density.data(),  density.size() == 1};
     }
 
     std::size_t size() const { return x.size(); }
