@@ -156,9 +156,10 @@ int EigenErosion<D>::apply(MaterialPoints<D>& P, const std::vector<ElasticMateri
         if (erode[k]) eroding_.push_back(candidates_[k]);
     for (int p : eroding_) {
         const ElasticMaterial& m = materials[P.material[p]];
-        before_.push_back(P.stressOf(p, materials));  // (the stress the force used)
-        P.damage[p] = 0.0;                              // g(0) sigma+ + sigma-: stressOf is sigma- now
-        const LawResponse<D> r = lawResponse<D>(P.strainOf(p), m);
+        Mat<D> eps;
+        before_.push_back(P.stressOf(p, materials, &eps));  // (the stress the force used)
+        P.damage[p] = 0.0;                                    // g(0) sigma+ + sigma-: stressOf is sigma- now
+        const LawResponse<D> r = lawResponse<D>(eps, m);
         P.energy[p] = P.damage[p] * r.psiPlus + r.psiMinus;       // (as the stress pass writes it)
     }
     // The events and the dissipated energy (Eq 33), in the single-process order.

@@ -96,16 +96,25 @@ template <int D> struct MaterialPoints {
     /// frame (Kinematics.hpp, cauchyStress), NaN for a degenerate F. Bitwise the stress the
     /// step's force used (the same operations as the stress pass's lanes), and after erosion
     /// (c = 0) sigma- alone. Not stored: the step writes 24 B (2D) or 72 B (3D) less per point.
-    Mat<D> stressOf(std::size_t p, const std::vector<ElasticMaterial>& materials) const
+    /// `eps`, when given, receives the strain the law saw (strainOf(p), without a second polar
+    /// decomposition).
+    Mat<D> stressOf(std::size_t p, const std::vector<ElasticMaterial>& materials, Mat<D>* eps = nullptr) const
     {
         const ElasticMaterial& m = materials[material[p]];
+        Mat<D> e;
         if (!deformation) {
-            const LawResponse<D> r = lawResponse<D>(full(strain[p]), m);
+            e = full(strain[p]);
+            if (eps) *eps = e;
+            const LawResponse<D> r = lawResponse<D>(e, m);
             return full(PointTensor<D>(Mat<D>(damage[p] * r.sigmaPlus + r.sigmaMinus)));
         }
         Mat<D> R, U;
-        if (!polarDecomposition(deformationGradient[p], R, U)) return Mat<D>::Constant(std::numeric_limits<double>::quiet_NaN());
-        const LawResponse<D> r = lawResponse<D>(Mat<D>(U - Mat<D>::Identity()), m);
+        const Mat<D> nan = Mat<D>::Constant(std::numeric_limits<double>::quiet_NaN());
+        const bool ok = polarDecomposition(deformationGradient[p], R, U);
+        e = ok ? Mat<D>(U - Mat<D>::Identity()) : nan;
+        if (eps) *eps = e;
+        if (!ok) return nan;
+        const LawResponse<D> r = lawResponse<D>(e, m);
         return full(PointTensor<D>(cauchyStress<D>(R, U, damage[p] * r.sigmaPlus + r.sigmaMinus)));
     }
     /// m_p = rho V_p: computed, not stored (8 B per point less; bitwise the mass stored before,

@@ -901,17 +901,15 @@ template <class Sv> struct Bind {
             // turned to the spatial frame, R (U - I) R^T; NaN for a degenerate F). eps, the
             // strain itself, also gives a 2D point's out-of-plane component.
             Mat<D> eps, t;
-            if (stress) t = P.stressOf(p, s.materials());  // (not stored: MaterialPoints::stressOf)
-            if (!stress || D == 2) {
-                if (!P.deformation) {
-                    eps = full(P.strain[p]);
-                    if (!stress) t = eps;
-                } else {  // (MaterialPoints::strainOf, with R kept for the spatial frame)
-                    Mat<D> R, U;
-                    const bool ok = polarDecomposition(P.deformationGradient[p], R, U);
-                    eps = ok ? Mat<D>(U - Mat<D>::Identity()) : Mat<D>::Constant(std::numeric_limits<double>::quiet_NaN());
-                    if (!stress) t = ok ? Mat<D>(R * eps * R.transpose()) : eps;
-                }
+            if (stress) {
+                t = P.stressOf(p, s.materials(), &eps);  // (not stored; eps: the strain it used)
+            } else if (!P.deformation) {
+                t = eps = full(P.strain[p]);
+            } else {  // (MaterialPoints::strainOf, with R kept for the spatial frame)
+                Mat<D> R, U;
+                const bool ok = polarDecomposition(P.deformationGradient[p], R, U);
+                eps = ok ? Mat<D>(U - Mat<D>::Identity()) : Mat<D>::Constant(std::numeric_limits<double>::quiet_NaN());
+                t = ok ? Mat<D>(R * eps * R.transpose()) : eps;
             }
             for (int i = 0; i < D; ++i)
                 for (int j = 0; j < D; ++j) out[9 * p + 3 * i + j] = t(i, j);
