@@ -111,22 +111,31 @@ template <int D, class K> struct Stencil {
     /// kernel that evaluates one point per lane (K::laneEvaluation): the weights of all n in one
     /// loop in the processor's widest vectors (pkg/Lanes.hpp), then copied into the stencils.
     /// Bitwise compute()'s (the same operations per point).
+    /// With `box` (the marked nodes' box, Solver::markedBox), near[i] tells whether point i's
+    /// support overlaps it (overlaps(): the same base nodes, so the same answer), from the lanes'
+    /// base nodes instead of the position once more per point in the scatter.
+    struct Box {
+        const int* lo;
+        const int* hi;
+        int* near;
+    };
     template <int R, class X>
-    static EMP_ALWAYS_INLINE void computeRun(int n, X&& x, const Grid<D>& g, const HalfWidth& lp, Stencil* out)
+    static EMP_ALWAYS_INLINE void computeRun(int n, X&& x, const Grid<D>& g, const HalfWidth& lp, Stencil* out,
+                                             const Box* box = nullptr)
     {
-        computeRun<R, false>(n, x, g, lp, out, nullptr);
+        computeRun<R, false>(n, x, g, lp, out, nullptr, nullptr, box);
     }
     /// computeRun with each point's APIC frame (affineFrame) too, from the same lanes, and its
     /// offsets once more in `offsets` (kept for G2P).
     template <int R, class X>
     static EMP_ALWAYS_INLINE void computeRun(int n, X&& x, const Grid<D>& g, const HalfWidth& lp, Stencil* out,
-                                             AffineFrame* frames, AffineOffset* offsets)
+                                             AffineFrame* frames, AffineOffset* offsets, const Box* box = nullptr)
     {
-        computeRun<R, true>(n, x, g, lp, out, frames, offsets);
+        computeRun<R, true>(n, x, g, lp, out, frames, offsets, box);
     }
     template <int R, bool affine, class X>
     static EMP_ALWAYS_INLINE void computeRun(int n, X&& x, const Grid<D>& g, const HalfWidth& lp, Stencil* out,
-                                             AffineFrame* frames, AffineOffset* offsets = nullptr)
+                                             AffineFrame* frames, AffineOffset* offsets = nullptr, const Box* box = nullptr)
     {
         // The weights and their derivatives, value m of lane i at wd[m][i] (m = (d, k) of w, then
         // of dw: the order of a Stencil's w and dw).
@@ -163,6 +172,17 @@ template <int D, class K> struct Stencil {
             for (int d = 0; d < D; ++d) base[d] = bs[d][i];
             st.first = firstOf(g, base);
             st.remap = -1;
+        }
+        if (box) {  // (only while supports map onto twins: one vector loop over the run)
+            int lo[D], hi[D];
+            for (int d = 0; d < D; ++d) lo[d] = box->lo[d] - (S - 1), hi[d] = box->hi[d];
+            alignas(64) int in[R];
+            forLanes(n, [&](int i) EMP_LAMBDA_INLINE {
+                int inside = 1;
+                for (int d = 0; d < D; ++d) inside &= (bs[d][i] <= hi[d]) & (bs[d][i] >= lo[d]);
+                in[i] = inside;
+            });
+            for (int i = 0; i < n; ++i) box->near[i] = in[i];
         }
         withLaneIsa([&]() EMP_LAMBDA_INLINE { transposeInto<R, M>(n, wd, out); });
     }
@@ -220,18 +240,21 @@ template <int D, class K> struct Stencil {
     /// when any node is marked.
     void mapAcrossCracks(const Vec<D>& x, Grid<D>& g, const PhantomNodes<D>& ph, int slot)
     {
+        // The base node's lattice coordinates from x, whose stencil this is (baseAt: the same
+        // integers as baseOf, without its integer divisions), once for every marked node.
+        int base[D];
+        for (int d = 0; d < D; ++d) base[d] = baseAt(x, g, d);
         if constexpr (D == 2) {
             // The point lies in its support's box (the nodes base .. base + S - 1): when no crack
             // passes near that box, no segment from the point to a node can cross one.
             Vec<D> lo, hi;
             for (int d = 0; d < D; ++d) {
-                const int base = baseOf(g, d);
-                lo[d] = g.origin[d] + base * g.h;
-                hi[d] = g.origin[d] + (base + S - 1) * g.h;
+                lo[d] = g.origin[d] + base[d] * g.h;
+                hi[d] = g.origin[d] + (base[d] + S - 1) * g.h;
             }
             if (ph.clearOf(lo, hi, 1e-6 * g.h)) return;
         }
-        mapMarked<true>(g, ph, slot, [&](int I, int k) { return ph.map(x, I, nodePosition(g, k)); });
+        mapMarked<true>(g, ph, slot, [&](int I, int k) { return ph.map(x, I, nodePosition(g, base, k)); });
     }
 
     /// Bodies in one grid (PhantomNodes::updateBodies): a point of `body` uses that body's twin of
@@ -276,12 +299,12 @@ template <int D, class K> struct Stencil {
         return I;
     }
 
-    /// Position of support node k: Grid::nodePosition(regularNode(g, k)) from the lattice
-    /// coordinates at hand, without its integer divisions (the same numbers).
-    Vec<D> nodePosition(const Grid<D>& g, int k) const
+    /// Position of support node k: Grid::nodePosition(regularNode(g, k)) from the base node's
+    /// lattice coordinates (baseOf), without Grid's integer divisions (the same numbers).
+    Vec<D> nodePosition(const Grid<D>& g, const int* base, int k) const
     {
         Vec<D> x;
-        for (int d = 0, r = k; d < D; ++d, r /= S) x[d] = g.origin[d] + (baseOf(g, d) + r % S) * g.h;
+        for (int d = 0, r = k; d < D; ++d, r /= S) x[d] = g.origin[d] + (base[d] + r % S) * g.h;
         return x;
     }
 
