@@ -100,6 +100,56 @@ public:
         }
         return I;
     }
+    /// 2D, a whole support at once: the S x S nodes at (xs[i], ys[j]) (node k = i + S j), which
+    /// hold the point p; bit k of `marked` set for the marked ones. Replaces each marked node[k]
+    /// by map(p, node[k], its position), the same decisions: crossesSegment's expressions,
+    /// whose products each depend on the node's column or its row only, formed once per
+    /// segment and support instead of once per node (bitwise the same values), and the twins
+    /// looked up only for the nodes a crack's segments cross an odd number of times. Returns
+    /// whether any node changed.
+    template <int S> bool mapSupport(const Vec<2>& p, const double* xs, const double* ys, unsigned marked, int* node) const
+    {
+        static_assert(D == 2 && S * S <= 32, "2D supports");
+        unsigned open = marked;  // marked nodes no earlier crack has mapped
+        for (std::size_t c = 0; c < cracks_.size() && open; ++c) {
+            const auto& v = cracks_[c];
+            unsigned odd = 0;
+            for (std::size_t s = 0; s + 1 < v.size(); ++s) {
+                const Vec<2>& a = v[s];
+                const Vec<2>& b = v[s + 1];
+                const bool aIsTip = s == 0;
+                // orient(a, b, q) = rs[j] - cs[i]; orient(p, q, a) = ca[i] - ra[j]; orient(p, q, b) = cb[i] - rb[j].
+                const bool sp = phantom::orient(a, b, p) >= 0;
+                double rs[S], cs[S], ca[S], ra[S], cb[S], rb[S];
+                for (int m = 0; m < S; ++m) {
+                    rs[m] = (b[0] - a[0]) * (ys[m] - a[1]);
+                    cs[m] = (b[1] - a[1]) * (xs[m] - a[0]);
+                    ca[m] = (xs[m] - p[0]) * (a[1] - p[1]);
+                    ra[m] = (ys[m] - p[1]) * (a[0] - p[0]);
+                    cb[m] = (xs[m] - p[0]) * (b[1] - p[1]);
+                    rb[m] = (ys[m] - p[1]) * (b[0] - p[0]);
+                }
+                for (int j = 0; j < S; ++j)
+                    for (int i = 0; i < S; ++i) {
+                        const int k = i + S * j;
+                        if (!((open >> k) & 1u) || sp == (rs[j] - cs[i] >= 0)) continue;
+                        const double oa = ca[i] - ra[j], ob = cb[i] - rb[j];
+                        if (oa == ob) continue;
+                        const double t = oa / (oa - ob);
+                        if ((aIsTip ? t > 0 : t >= 0) && t < 1) odd ^= 1u << k;
+                    }
+            }
+            for (int k = 0; odd; ++k, odd >>= 1)
+                if (odd & 1u) {
+                    const int t = twin_[c * numNodes_ + node[k]] - 1;
+                    if (t >= 0) {
+                        node[k] = t;
+                        open &= ~(1u << k);
+                    }
+                }
+        }
+        return open != marked;
+    }
     /// Calls f(twin) for every twin of node I.
     template <class F> void forEachTwin(int I, F&& f) const
     {

@@ -189,15 +189,14 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
     // APIC 9 % more instructions.
     // `frame` is the point's APIC frame when its run computed it (inRuns), or null.
     const auto body = [&](auto apic, auto computed) {
-        return [&](const PassArrays& A, int k, const typename St::AffineFrame* frame, bool near) EMP_LAMBDA_INLINE {
+        return [&](const PassArrays& A, int k, const typename St::AffineFrame* frame) EMP_LAMBDA_INLINE {
             const auto& P = A.P;
             const int p = A.order[k];
             St& st = A.stencil[k];
             if constexpr (!decltype(computed)::value) {
                 st.compute(P.x[p], g, half);
-                near = mapping && St::overlaps(P.x[p], g, markedLo_, markedHi_);
-            }
-            if (near) mapSupport(st, p, k);
+                if (mapping && St::overlaps(P.x[p], g, markedLo_, markedHi_)) mapSupport(st, p, k);
+            }  // (else the run's supports are mapped before it scatters: inRuns)
             const double mp = P.mass(p);
             const Vec<D> mv = mp * P.v[p];
             if constexpr (!decltype(apic)::value) {
@@ -259,17 +258,18 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
             const auto x = [&](int i) -> const Vec<D>& { return points_.x[order[begin + i]]; };
             typename St::AffineFrame frames[decltype(apic)::value ? stencilRun : 1];
             // Near a crack (or bodies in one grid), which points' supports may touch a marked
-            // node, from the run's base nodes (Stencil::Box).
+            // node, from the run's base nodes (Stencil::Box); those are mapped before the run
+            // scatters (mapRun: no call in the scatter's loop).
             int near[stencilRun];
-            const typename St::Box box{markedLo_, markedHi_, near}, *const nearBox = mapping ? &box : nullptr;
+            typename St::Box box{markedLo_, markedHi_, near, 0}, *const nearBox = mapping ? &box : nullptr;
             if constexpr (decltype(apic)::value)
                 St::template computeRun<stencilRun>(end - begin, x, g, half, &stencil_[begin], frames, &offset_[begin], nearBox);
             else
                 St::template computeRun<stencilRun>(end - begin, x, g, half, &stencil_[begin], nearBox);
+            if (box.any) mapRun(begin, end, near);
             withLaneIsa([&]() EMP_LAMBDA_INLINE {  // (the rows' loops in the lanes' width)
                 const PassArrays A = passArrays();
-                for (int k = begin; k < end; ++k)
-                    point(A, k, decltype(apic)::value ? &frames[k - begin] : nullptr, nearBox && near[k - begin]);
+                for (int k = begin; k < end; ++k) point(A, k, decltype(apic)::value ? &frames[k - begin] : nullptr);
             });
         };
     };
@@ -277,7 +277,7 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
         if constexpr (K::laneEvaluation)
             if (laneIsa() != LaneIsa::baseline) return schedule_.scatterRuns(nThreads, stencilRun, inRuns(apic), between);
         const auto point = body(apic, std::false_type{});
-        schedule_.scatter(nThreads, [&](int k) EMP_LAMBDA_INLINE { point(passArrays(), k, nullptr, false); }, between);
+        schedule_.scatter(nThreads, [&](int k) EMP_LAMBDA_INLINE { point(passArrays(), k, nullptr); }, between);
     };
     if (settings_.transfer == Transfer::apic)
         scatter(std::true_type{});

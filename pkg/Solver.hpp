@@ -342,6 +342,9 @@ private:
     /// points.
     const St& stepStencil(int p, St& scratch, int slot = -2);
     void mapSupport(St& st, int p, int slot);
+    /// P2G's run of the points order[begin .. end): mapSupport for each flagged in near (from
+    /// Stencil::computeRun's Box), in its own slot.
+    void mapRun(int begin, int end, const int* near);
     /// APIC's moment matrix diagonal of point p at its current position (Stencil::momentDiagonal).
     Vec<D> momentDiagonalAt(int p) const;
     /// f(I) for every node this process works on: all of them, or a distributed run's planes.

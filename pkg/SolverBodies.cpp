@@ -58,6 +58,21 @@ template <int D, class K> EMP_NOINLINE void Solver<D, K>::mapSupport(St& st, int
         st.mapAcrossCracks(points_.x[p], grid_, phantom_, slot);
 }
 
+// P2G's run of the points order[begin .. end) after Stencil::computeRun: the supports of those
+// flagged near (near[k - begin]) mapped, as mapSupport(stencil_[k], order[k], k) would.
+template <int D, class K> EMP_NOINLINE void Solver<D, K>::mapRun(int begin, int end, const int* near)
+{
+    const auto& order = schedule_.order();
+    for (int k = begin; k < end; ++k) {
+        if (!near[k - begin]) continue;
+        const int p = order[k];
+        if (mapping_ == 2)
+            stencil_[k].mapBodies(points_.body[p], grid_, phantom_, k);
+        else
+            stencil_[k].mapAcrossCracks(points_.x[p], grid_, phantom_, k);
+    }
+}
+
 template <int D, class K> void Solver<D, K>::setPointBodies(int first, int count, int body)
 {
     const int n = static_cast<int>(points_.size());
@@ -85,6 +100,7 @@ template <int D, class K> void Solver<D, K>::setBodyFriction(double friction)
     template void Solver<D, K>::markBodyNodes();                                      \
     template void Solver<D, K>::bodyGradients();                                      \
     template void Solver<D, K>::mapSupport(Stencil<D, K>&, int, int);                 \
+    template void Solver<D, K>::mapRun(int, int, const int*);                         \
     template void Solver<D, K>::setPointBodies(int, int, int);                        \
     template void Solver<D, K>::setBodyFriction(double);
 EMP_SOLVER_CONFIGURATIONS(EMP_INSTANTIATE)

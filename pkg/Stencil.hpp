@@ -5,6 +5,7 @@
 #pragma once
 #include <algorithm>
 #include <cstddef>
+#include <cstring>
 #include <type_traits>
 
 #include "Grid.hpp"
@@ -113,15 +114,17 @@ template <int D, class K> struct Stencil {
     /// Bitwise compute()'s (the same operations per point).
     /// With `box` (the marked nodes' box, Solver::markedBox), near[i] tells whether point i's
     /// support overlaps it (overlaps(): the same base nodes, so the same answer), from the lanes'
-    /// base nodes instead of the position once more per point in the scatter.
+    /// base nodes instead of the position once more per point in the scatter; `any` whether
+    /// one does. near holds R flags, written only where `any` is set.
     struct Box {
         const int* lo;
         const int* hi;
         int* near;
+        int any;
     };
     template <int R, class X>
     static EMP_ALWAYS_INLINE void computeRun(int n, X&& x, const Grid<D>& g, const HalfWidth& lp, Stencil* out,
-                                             const Box* box = nullptr)
+                                             Box* box = nullptr)
     {
         computeRun<R, false>(n, x, g, lp, out, nullptr, nullptr, box);
     }
@@ -129,13 +132,13 @@ template <int D, class K> struct Stencil {
     /// offsets once more in `offsets` (kept for G2P).
     template <int R, class X>
     static EMP_ALWAYS_INLINE void computeRun(int n, X&& x, const Grid<D>& g, const HalfWidth& lp, Stencil* out,
-                                             AffineFrame* frames, AffineOffset* offsets, const Box* box = nullptr)
+                                             AffineFrame* frames, AffineOffset* offsets, Box* box = nullptr)
     {
         computeRun<R, true>(n, x, g, lp, out, frames, offsets, box);
     }
     template <int R, bool affine, class X>
     static EMP_ALWAYS_INLINE void computeRun(int n, X&& x, const Grid<D>& g, const HalfWidth& lp, Stencil* out,
-                                             AffineFrame* frames, AffineOffset* offsets = nullptr, const Box* box = nullptr)
+                                             AffineFrame* frames, AffineOffset* offsets = nullptr, Box* box = nullptr)
     {
         // The weights and their derivatives, value m of lane i at wd[m][i] (m = (d, k) of w, then
         // of dw: the order of a Stencil's w and dw).
@@ -176,13 +179,19 @@ template <int D, class K> struct Stencil {
         if (box) {  // (only while supports map onto twins: one vector loop over the run)
             int lo[D], hi[D];
             for (int d = 0; d < D; ++d) lo[d] = box->lo[d] - (S - 1), hi[d] = box->hi[d];
-            alignas(64) int in[R];
+            // (in the lanes into a local array, whose R flags then give `any` and are copied in
+            // vectors; with the flags stored through box->near and `any` summed in the lanes'
+            // loop, GCC's code took about 15 instructions a point)
+            alignas(64) int in[R] = {};
             forLanes(n, [&](int i) EMP_LAMBDA_INLINE {
                 int inside = 1;
                 for (int d = 0; d < D; ++d) inside &= (bs[d][i] <= hi[d]) & (bs[d][i] >= lo[d]);
                 in[i] = inside;
             });
-            for (int i = 0; i < n; ++i) box->near[i] = in[i];
+            int any = 0;
+            for (int i = 0; i < R; ++i) any |= in[i];
+            if (any) std::memcpy(box->near, in, sizeof in);
+            box->any = any;
         }
         withLaneIsa([&]() EMP_LAMBDA_INLINE { transposeInto<R, M>(n, wd, out); });
     }
@@ -245,16 +254,28 @@ template <int D, class K> struct Stencil {
         int base[D];
         for (int d = 0; d < D; ++d) base[d] = baseAt(x, g, d);
         if constexpr (D == 2) {
+            // The nodes' coordinates (nodePosition's numbers), by column and by row.
+            double xs[S], ys[S];
+            for (int i = 0; i < S; ++i) {
+                xs[i] = g.origin[0] + (base[0] + i) * g.h;
+                ys[i] = g.origin[1] + (base[1] + i) * g.h;
+            }
             // The point lies in its support's box (the nodes base .. base + S - 1): when no crack
             // passes near that box, no segment from the point to a node can cross one.
-            Vec<D> lo, hi;
-            for (int d = 0; d < D; ++d) {
-                lo[d] = g.origin[d] + base[d] * g.h;
-                hi[d] = g.origin[d] + (base[d] + S - 1) * g.h;
+            if (ph.clearOf(Vec<2>(xs[0], ys[0]), Vec<2>(xs[S - 1], ys[S - 1]), 1e-6 * g.h)) return;
+            int node[NS];
+            unsigned marked = 0;
+            for (int k = 0; k < NS; ++k) {
+                node[k] = regularNode(g, k);
+                if (ph.marked(node[k])) marked |= 1u << k;
             }
-            if (ph.clearOf(lo, hi, 1e-6 * g.h)) return;
+            // (PhantomNodes::mapSupport: map() for each marked node, the whole support at once.)
+            if (!marked || !ph.template mapSupport<S>(x, xs, ys, marked, node)) return;
+            remap = slot * NS;
+            std::copy(node, node + NS, &g.remap[remap]);
+        } else {
+            mapMarked<true>(g, ph, slot, [&](int I, int k) { return ph.map(x, I, nodePosition(g, base, k)); });
         }
-        mapMarked<true>(g, ph, slot, [&](int I, int k) { return ph.map(x, I, nodePosition(g, base, k)); });
     }
 
     /// Bodies in one grid (PhantomNodes::updateBodies): a point of `body` uses that body's twin of

@@ -580,14 +580,23 @@ TEST(PhantomMarking, StencilMappingIsThePlainRule2D)
                                        origin + h * v2(30.2, 16.0)};
     ph.addCrack(crack);
     ph.addCrack({origin + h * v2(9.7, 4.2), origin + h * v2(9.7, 11.6)});  // a second, vertical
+    // A third through a column of nodes (x = origin + 16 h, nodePosition's number: nodes exactly
+    // on it), across the first, so that nodes near the two have a twin of each (the first crack
+    // that maps a node decides); a fourth, a polyline along a row of nodes.
+    ph.addCrack({origin + h * v2(16.0, 9.0), origin + h * v2(16.0, 21.0)});
+    ph.addCrack({origin + h * v2(4.0, 24.0), origin + h * v2(8.0, 24.0), origin + h * v2(12.0, 26.0)});
     ph.update(g, GimpKernel::crackRings);
     std::vector<Vec<2>> xs;
     std::mt19937 rng(7);
     std::uniform_real_distribution<double> ux(2.0, 37.0), uy(2.0, 29.0);
     for (int i = 0; i < 6000; ++i) xs.push_back(origin + h * v2(ux(rng), uy(rng)));
-    for (const auto& c : {crack, ph.vertices(1)})
-        for (std::size_t i = 0; i + 1 < c.size(); ++i)
-            for (double t : {0.0, 0.25, 0.5, 1.0}) xs.push_back(c[i] + t * (c[i + 1] - c[i]));  // on the crack
+    for (std::size_t c = 0; c < ph.numCracks(); ++c) {
+        const auto& v = ph.vertices(static_cast<int>(c));
+        for (std::size_t i = 0; i + 1 < v.size(); ++i)
+            for (double t : {0.0, 0.25, 0.5, 1.0}) xs.push_back(v[i] + t * (v[i + 1] - v[i]));  // on the crack
+    }
+    for (int j = 8; j < 27; ++j)  // on nodes
+        for (int i = 3; i < 14; ++i) xs.push_back(g.nodePosition(i + j * g.stride[1]));
     int twins = 0, regular = 0;
     expectStencilMappingIsThePlainRule<2, GimpKernel>(g, ph, xs, twins, regular);
     EXPECT_GT(twins, 300);

@@ -459,7 +459,7 @@ template <int D> void checkComputeRun()
     std::mt19937 rng(71);
     std::uniform_real_distribution<double> u(3.0, 12.0);
     const emp::LaneIsa before = emp::laneIsa();
-    int compared = 0, nearCount = 0;
+    int compared = 0, nearCount = 0, runsNear = 0, runsClear = 0;
     for (int ppc = 1; ppc <= 5; ++ppc) {
         const emp::HalfWidth half(0.5 / ppc);
         std::vector<Vec<D>> x;
@@ -485,15 +485,21 @@ template <int D> void checkComputeRun()
                 St::template computeRun<R>(m, xOf, g, half, run.data());
                 St::template computeRun<R>(m, xOf, g, half, withFrames.data(), frames.data(), offsets.data());
                 // With a box of marked nodes (P2G near a crack): the same stencils, and each
-                // point flagged exactly where overlaps() finds its support touching the box.
+                // point flagged exactly where overlaps() finds its support touching the box, and
+                // `any` set exactly when one is.
                 int lo[D], hi[D], near[R], nearFramed[R];
                 for (int d = 0; d < D; ++d) lo[d] = 5 + d + static_cast<int>(begin % 2), hi[d] = lo[d] + static_cast<int>(begin % 4);
-                const typename St::Box box{lo, hi, near}, boxFramed{lo, hi, nearFramed};
+                typename St::Box box{lo, hi, near, -1}, boxFramed{lo, hi, nearFramed, -1};
                 std::vector<St> boxed(m), boxedFramed(m);
                 std::vector<typename St::AffineFrame> framesBoxed(m);
                 std::vector<typename St::AffineOffset> offsetsBoxed(m);
                 St::template computeRun<R>(m, xOf, g, half, boxed.data(), &box);
                 St::template computeRun<R>(m, xOf, g, half, boxedFramed.data(), framesBoxed.data(), offsetsBoxed.data(), &boxFramed);
+                bool anyOverlaps = false;
+                for (int i = 0; i < m; ++i) anyOverlaps = anyOverlaps || St::overlaps(x[begin + i], g, lo, hi);
+                ASSERT_EQ(box.any != 0, anyOverlaps) << emp::name(w);
+                ASSERT_EQ(boxFramed.any != 0, anyOverlaps) << emp::name(w);
+                (anyOverlaps ? runsNear : runsClear) += 1;
                 for (int i = 0; i < m; ++i) {
                     one[i].compute(x[begin + i], g, half);
                     ASSERT_EQ(std::memcmp(&withFrames[i], &run[i], sizeof run[i]), 0);
@@ -501,8 +507,10 @@ template <int D> void checkComputeRun()
                     ASSERT_EQ(std::memcmp(&boxedFramed[i], &run[i], sizeof run[i]), 0);
                     ASSERT_EQ(std::memcmp(&framesBoxed[i], &frames[i], sizeof frames[i]), 0);
                     const bool overlaps = St::overlaps(x[begin + i], g, lo, hi);
-                    ASSERT_EQ(near[i] != 0, overlaps) << emp::name(w) << ", x = " << x[begin + i].transpose();
-                    ASSERT_EQ(nearFramed[i] != 0, overlaps) << emp::name(w);
+                    if (anyOverlaps) {  // (the flags are written only then)
+                        ASSERT_EQ(near[i] != 0, overlaps) << emp::name(w) << ", x = " << x[begin + i].transpose();
+                        ASSERT_EQ(nearFramed[i] != 0, overlaps) << emp::name(w);
+                    }
                     nearCount += overlaps;
                     // APIC's frame: from the lanes, per point, and from the plain offsets and
                     // moment diagonal (cellOffsets, momentDiagonal), bitwise.
@@ -544,6 +552,8 @@ template <int D> void checkComputeRun()
     // (both answers occur: the boxes cover part of the points)
     EXPECT_GT(nearCount, compared / 20);
     EXPECT_LT(nearCount, compared - compared / 20);
+    EXPECT_GT(runsNear, 0);
+    EXPECT_GT(runsClear, 0);
 }
 TEST(ShapeFunction, ComputeRunIsBitwiseCompute2D) { checkComputeRun<2>(); }
 TEST(ShapeFunction, ComputeRunIsBitwiseCompute3D) { checkComputeRun<3>(); }
