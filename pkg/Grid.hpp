@@ -22,6 +22,13 @@ template <int D> struct Grid {
     Nodal<Vec<D>> momentum;  ///< P_I (Eqs 25, 29)
     Nodal<Vec<D>> velocity;  ///< v_I (Eq 26), then P_I^{n+1/2}/m_I for Eq 31
     Nodal<Vec<D>> force;     ///< f_I (Eqs 13, 28), then the applied f_I for Eq 30
+    /// 3D: P2G's sums, node by node m_I then P_I (sumsWidth = 4 numbers from I * sumsWidth
+    /// on): one 4-lane vector per node (32-byte aligned where ZeroPages maps pages, above 1 MB),
+    /// which P2G updates in one addition (Stencil::scatterRowsOf). nodalVelocity copies them
+    /// into mass and momentum. (2D: empty; P2G adds into mass and momentum directly, which
+    /// measured as fast: doc/performance.md, "Session 42".)
+    static constexpr int sumsWidth = D == 3 ? 4 : 0;
+    Nodal<double> massMomentum;
     /// Node indices of the points near pre-existing cracks: the stencil of such a point reads
     /// its S^D node indices here (a twin in place of a marked node across the crack).
     std::vector<int> remap;
@@ -47,6 +54,7 @@ template <int D> struct Grid {
         momentum.resize(total, Vec<D>::Zero());
         velocity.resize(total, Vec<D>::Zero());
         force.resize(total, Vec<D>::Zero());
+        massMomentum.resize(static_cast<std::size_t>(total) * sumsWidth, 0.0);
     }
 
     /// Nodes at origin + i*h for i in [0, n); resets every nodal array.
@@ -98,6 +106,7 @@ private:
         freshZeros(momentum, total, capacity);
         freshZeros(velocity, total, capacity);
         freshZeros(force, total, capacity);
+        freshZeros(massMomentum, static_cast<std::size_t>(total) * sumsWidth, static_cast<std::size_t>(capacity) * sumsWidth);
     }
     int regular_ = 0;
 };

@@ -169,9 +169,15 @@ template <int D, class K> void Solver<D, K>::markedBox()
 template <int D, class K> void Solver<D, K>::clearGrid(int nThreads)
 {
     auto& g = grid_;
+    constexpr int W = Grid<D>::sumsWidth;
+    double* mm = g.massMomentum.data();
     forEachWorkNode(nThreads, [&](int I) {
-        g.mass[I] = 0;
-        g.momentum[I].setZero();
+        if constexpr (W > 0) {  // (3D: P2G's sums, which nodalVelocity copies into mass and momentum)
+            for (int c = 0; c < W; ++c) mm[static_cast<std::size_t>(I) * W + c] = 0;
+        } else {
+            g.mass[I] = 0;
+            g.momentum[I].setZero();
+        }
         g.force[I].setZero();
     });
 }
@@ -199,20 +205,36 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
             }  // (else the run's supports are mapped before it scatters: inRuns)
             const double mp = P.mass(p);
             const Vec<D> mv = mp * P.v[p];
+            // 3D: node I's mass and momentum sums, one 4-lane vector (Grid::massMomentum).
+            constexpr int W = Grid<D>::sumsWidth;
+            const auto sums = [&](int I) EMP_LAMBDA_INLINE { return &A.massMomentum[static_cast<std::size_t>(I) * W]; };
+            const auto add = [&](int I, double m, const Vec<D>& q) EMP_LAMBDA_INLINE {
+                if constexpr (W > 0) {
+                    double* r = sums(I);
+                    r[0] += m;
+                    for (int d = 0; d < D; ++d) r[1 + d] += q[d];
+                } else {
+                    A.mass[I] += m;
+                    A.momentum[I] += q;
+                }
+            };
             if constexpr (!decltype(apic)::value) {
-                if (st.regular()) {  // (the same sums by rows: Stencil::forEachRow)
-                    st.forEachRow(g, [&](int I0, const double* N) EMP_LAMBDA_INLINE {
-                        double* m = &A.mass[I0];
-                        double* q = A.momentum[I0].data();
-                        for (int i = 0; i < S; ++i) m[i] += N[i] * mp;
-                        for (int e = 0; e < S * D; ++e) q[e] += N[e / D] * mv[e % D];
-                    });
+                if (st.regular()) {
+                    if constexpr (W > 0) {  // (the same sums, node by node in 4 lanes: Stencil::scatterRowsOf)
+                        double a[D + 1] = {mp};
+                        for (int d = 0; d < D; ++d) a[1 + d] = mv[d];
+                        st.scatterRowsOf(g, a, sums);
+                    } else {  // (the same sums by rows: Stencil::forEachRow)
+                        st.forEachRow(g, [&](int I0, const double* N) EMP_LAMBDA_INLINE {
+                            double* m = &A.mass[I0];
+                            double* q = A.momentum[I0].data();
+                            for (int i = 0; i < S; ++i) m[i] += N[i] * mp;
+                            for (int e = 0; e < S * D; ++e) q[e] += N[e / D] * mv[e % D];
+                        });
+                    }
                     return;
                 }
-                st.forEach(g, [&](int I, double N, const Vec<D>&) {
-                    A.mass[I] += N * mp;
-                    A.momentum[I] += N * mv;
-                });
+                st.forEach(g, [&](int I, double N, const Vec<D>&) { add(I, N * mp, N * mv); });
             } else {
                 // APIC: m_I v_I += N m_p (v_p + C_p (x_I - x_p)), C_p = B_p D_p^-1 at this position.
                 // In cells (u = (x_I - x_p) / h, D_p = h^2 diag(du)): C_p (x_I - x_p) = Cu u with
@@ -229,22 +251,25 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
                 for (int d = 0; d < D; ++d)
                     Cu.col(d) = f.r[d] > 0 ? Vec<D>(Cu.col(d) * f.r[d]) : Vec<D>::Zero();
                 if (st.regular()) {
-                    st.forEachRowAffine(g, u, mv, mp, Cu, [&](int I0, const double* N, const double* Nt) EMP_LAMBDA_INLINE {
-                        double* m = &A.mass[I0];
-                        double* q = A.momentum[I0].data();
-                        for (int i = 0; i < S; ++i) m[i] += N[i] * mp;
-                        for (int e = 0; e < S * D; ++e) q[e] += Nt[e];
-                    });
+                    if constexpr (W > 0) {
+                        st.scatterRowsAffineOf(g, u, mv, mp, Cu, sums);
+                    } else {
+                        st.forEachRowAffine(g, u, mv, mp, Cu, [&](int I0, const double* N, const double* Nt) EMP_LAMBDA_INLINE {
+                            double* m = &A.mass[I0];
+                            double* q = A.momentum[I0].data();
+                            for (int i = 0; i < S; ++i) m[i] += N[i] * mp;
+                            for (int e = 0; e < S * D; ++e) q[e] += Nt[e];
+                        });
+                    }
                     return;
                 }
-                st.forEachAffine(g, u, mv, Mat<D>(mp * Cu), [&](int I, double N, const Vec<D>& m) {
-                    A.mass[I] += N * mp;
-                    A.momentum[I] += N * m;
-                });
+                st.forEachAffine(g, u, mv, Mat<D>(mp * Cu), [&](int I, double N, const Vec<D>& m) { add(I, N * mp, N * m); });
             }
         };
     };
-    const std::vector<NodeField> fields{{g.mass.data(), 1}, {g.momentum.data()->data(), D}};
+    const std::vector<NodeField> fields = Grid<D>::sumsWidth > 0
+                                              ? std::vector<NodeField>{{g.massMomentum.data(), Grid<D>::sumsWidth}}
+                                              : std::vector<NodeField>{{g.mass.data(), 1}, {g.momentum.data()->data(), D}};
     std::function<void(int)> between;
     if (dist_) between = [&](int k) { dist_->afterPhase(k, schedule_.numPhases(), g, fields); };
     // With vectors wider than the baseline's (pkg/Lanes.hpp), the stencils of a run of points
@@ -293,7 +318,14 @@ template <int D, class K> void Solver<D, K>::nodalVelocity(int nThreads)
     // motion would strain. The cut-off applies where a force is divided by the mass (invMass).
     auto& g = grid_;
     const double cut = massCutoffAbs_;
+    constexpr int W = Grid<D>::sumsWidth;
+    const double* mm = g.massMomentum.data();
     forEachWorkNode(nThreads, [&](int I) {
+        if constexpr (W > 0) {  // (3D: P2G's sums, Grid::massMomentum)
+            const double* r = mm + static_cast<std::size_t>(I) * W;
+            g.mass[I] = r[0];
+            for (int d = 0; d < D; ++d) g.momentum[I][d] = r[1 + d];
+        }
         g.invMass[I] = g.mass[I] > cut && g.mass[I] > 0 ? 1.0 / g.mass[I] : 0.0;
         g.velocity[I] = g.mass[I] > 0 ? Vec<D>(g.momentum[I] / g.mass[I]) : Vec<D>::Zero();
     });

@@ -283,11 +283,13 @@ private:
         Vec<D>* velocity;
         Vec<D>* force;
         typename St::AffineOffset* offset;  ///< APIC: offset_'s elements (else null)
+        double* massMomentum;               ///< Grid::massMomentum (P2G's sums)
     };
     PassArrays passArrays()
     {
         return {points_.view(), schedule_.order().data(), stencil_.data(), grid_.mass.data(),
-                grid_.momentum.data(), grid_.velocity.data(), grid_.force.data(), offset_.data()};
+                grid_.momentum.data(), grid_.velocity.data(), grid_.force.data(), offset_.data(),
+                grid_.massMomentum.data()};
     }
     /// Eq 27's velocity gradient at point p, from the nodal masses and velocities of A (a
     /// PassArrays, or any A with A.mass, A.velocity and the points' velocities A.P.v).

@@ -36,7 +36,7 @@ struct Lane3 {
         // and the reload waited on the two stores, about twice the time of the sums it served.)
         return Lane3{reinterpret_cast<V>(reinterpret_cast<Bits>(loaded) & Bits{-1, -1, -1, 0})};
     }
-    /// a in the first three lanes; the fourth repeats the third (forEachRowAffine, its only user,
+    /// a in the first three lanes; the fourth repeats the third (scatterRowsAffineOf, its only user,
     /// reads no sum of it). Built from two 2-lane halves: as V{a0, a1, a2, 0} GCC assembled the
     /// vector in memory, and reading it back waited on the narrower stores. (A zero fourth lane
     /// made GCC emit a register form of vmovq that valgrind 3.19 does not decode.)
@@ -730,6 +730,32 @@ template <int D, class K> struct Stencil {
         }
     }
 
+    /// 3D: P2G's sums into a field of 4 numbers per node (Grid::massMomentum): node I of the
+    /// support gets N_I a[c] added to its number c, with N_I forEachRow's weight (the same
+    /// products, in the same order: w[0][i] times the row's weight, then times a[c]). at(I)
+    /// gives node I's numbers: one 4-lane vector per node, one addition.
+    template <class At> EMP_ALWAYS_INLINE void scatterRowsOf(const Grid<D>& g, const double* a, At&& at) const
+    {
+        static_assert(D == 3 && Grid<D>::sumsWidth == 4, "3D: one 4-lane vector per node");
+        typedef double V2 __attribute__((vector_size(2 * sizeof(double))));
+        typedef double V4 __attribute__((vector_size(4 * sizeof(double))));
+        const V2 lo{a[0], a[1]}, hi{a[2], a[3]};
+        const V4 av = __builtin_shufflevector(lo, hi, 0, 1, 2, 3);
+        V4 wx[S];
+        for (int i = 0; i < S; ++i) wx[i] = V4{w[0][i], w[0][i], w[0][i], w[0][i]};
+        for (int k = 0; k < S; ++k)
+            for (int j = 0; j < S; ++j) {
+                double* r = at(rowStart(g, j, k));
+                const double f = w[1][j] * w[2][k];
+                for (int i = 0; i < S; ++i) {
+                    V4 x;
+                    __builtin_memcpy(&x, r + 4 * i, sizeof(V4));
+                    x += (wx[i] * f) * av;
+                    __builtin_memcpy(r + 4 * i, &x, sizeof(V4));
+                }
+            }
+    }
+
     /// forEachProjected by rows: row(first node, N, t) with t the row's M grad N.
     template <class Row> EMP_ALWAYS_INLINE void forEachRowProjected(const Grid<D>& g, const Mat<D>& M, Row&& row) const
     {
@@ -764,7 +790,7 @@ template <int D, class K> struct Stencil {
         }
     }
 
-    /// forEachAffine by rows, with M = m C: row(first node, N, Nt) with Nt the row's
+    /// 2D: forEachAffine by rows, with M = m C: row(first node, N, Nt) with Nt the row's
     /// N_I (a + M (x_I - x_p)), node by node (S x D numbers: the same operations as
     /// forEachAffine's, in the same order). (M is formed here, column by column: as an Eigen
     /// temporary it went through the stack, and reading it back waited on the stores.)
@@ -772,63 +798,59 @@ template <int D, class K> struct Stencil {
     EMP_ALWAYS_INLINE void forEachRowAffine(const Grid<D>& g, const double (*o)[S], const Vec<D>& a, double m,
                                             const Mat<D>& C, Row&& row) const
     {
+        static_assert(D == 2, "3D: scatterRowsAffineOf");
         constexpr int E = S * D;
         double N[S];
         alignas(32) double Nt[E];
-        if constexpr (D == 3 && S == 3) {
-            // The 3-vectors in 4-lane vectors (Lane3): GCC left the groups of three scalar. A
-            // row's nine numbers are packed from its three nodes' products by two shuffles.
-            typedef Lane3::Bits Bits;
-            const Lane3 a3 = Lane3::of(a), m0 = m * Lane3::of(C.col(0)), m1 = m * Lane3::of(C.col(1)),
-                        m2 = m * Lane3::of(C.col(2));
-            Lane3 x3[S];
-            for (int i = 0; i < S; ++i) x3[i] = o[0][i] * m0;
-#pragma GCC unroll 4
-            for (int k = 0; k < S; ++k) {
-                const Lane3 q3 = a3 + o[2][k] * m2;
-#pragma GCC unroll 4
-                for (int j = 0; j < S; ++j) {
-                    const double wjk = w[1][j] * w[2][k];
-                    const Lane3 r3 = q3 + o[1][j] * m1;
-                    Lane3 p[S];
-                    for (int i = 0; i < S; ++i) {
-                        N[i] = w[0][i] * wjk;
-                        p[i] = N[i] * (r3 + x3[i]);
-                    }
-                    const Lane3::V lo = __builtin_shuffle(p[0].v, p[1].v, Bits{0, 1, 2, 4});
-                    const Lane3::V mid = __builtin_shuffle(p[1].v, p[2].v, Bits{1, 2, 4, 5});
-                    __builtin_memcpy(Nt, &lo, sizeof lo);
-                    __builtin_memcpy(Nt + 4, &mid, sizeof mid);
-                    Nt[8] = p[2].v[2];
-                    row(rowStart(g, j, k), N, Nt);
-                }
-            }
-            return;
-        }
         const Mat<D> M = m * C;
         double x[E];
         for (int i = 0; i < S; ++i)
             for (int d = 0; d < D; ++d) x[i * D + d] = o[0][i] * M(d, 0);
-        if constexpr (D == 2) {
+#pragma GCC unroll 4
+        for (int j = 0; j < S; ++j) {
+            const Vec<2> r = a + o[1][j] * M.col(1);
+            for (int i = 0; i < S; ++i) N[i] = w[0][i] * w[1][j];
+            for (int e = 0; e < E; ++e) Nt[e] = N[e / D] * (r[e % D] + x[e]);
+            row(rowStart(g, j), N, Nt);
+        }
+    }
+
+    /// 3D: APIC's P2G sums by rows, with M = m C, into a field of 4 numbers per node
+    /// (Grid::massMomentum, as scatterRowsOf): node I gets N_I m added to its number 0 and
+    /// N_I (a + M (x_I - x_p)) to its numbers 1 .. D, the same operations as forEachAffine's
+    /// (N_I times the sum of the row's part and the column's part of a + M (x_I - x_p)). A node's
+    /// numbers are one 4-lane vector: N_I times (0, the row's part) + (m, the column's part).
+    /// (M is formed here, column by column: as an Eigen temporary it went through the stack,
+    /// and reading it back waited on the stores.)
+    template <class At>
+    EMP_ALWAYS_INLINE void scatterRowsAffineOf(const Grid<D>& g, const double (*o)[S], const Vec<D>& a, double m,
+                                               const Mat<D>& C, At&& at) const
+    {
+        static_assert(D == 3 && Grid<D>::sumsWidth == 4, "3D: one 4-lane vector per node");
+        typedef double V4 __attribute__((vector_size(4 * sizeof(double))));
+        V4 wx[S], X[S];  // w[0][i] in each lane; (m, the column's part M_0 o_0i)
+        for (int i = 0; i < S; ++i) wx[i] = V4{w[0][i], w[0][i], w[0][i], w[0][i]};
+        const auto add = [&](double* r, double f, const V4& R) EMP_LAMBDA_INLINE {
+            for (int i = 0; i < S; ++i) {
+                V4 x;
+                __builtin_memcpy(&x, r + 4 * i, sizeof(V4));
+                x += (wx[i] * f) * (R + X[i]);
+                __builtin_memcpy(r + 4 * i, &x, sizeof(V4));
+            }
+        };
+        // (Lane3: the 3-vectors in the first three lanes; shifted up by one, with m or 0 in
+        // lane 0.)
+        const V4 zero{}, mv{m, m, m, m};
+        const Lane3 a3 = Lane3::of(a), m0 = m * Lane3::of(C.col(0)), m1 = m * Lane3::of(C.col(1)),
+                    m2 = m * Lane3::of(C.col(2));
+        for (int i = 0; i < S; ++i) X[i] = __builtin_shufflevector((o[0][i] * m0).v, mv, 4, 0, 1, 2);
+#pragma GCC unroll 4
+        for (int k = 0; k < S; ++k) {
+            const Lane3 q3 = a3 + o[2][k] * m2;
 #pragma GCC unroll 4
             for (int j = 0; j < S; ++j) {
-                const Vec<2> r = a + o[1][j] * M.col(1);
-                for (int i = 0; i < S; ++i) N[i] = w[0][i] * w[1][j];
-                for (int e = 0; e < E; ++e) Nt[e] = N[e / D] * (r[e % D] + x[e]);
-                row(rowStart(g, j), N, Nt);
-            }
-        } else {
-#pragma GCC unroll 4
-            for (int k = 0; k < S; ++k) {
-                const Vec<3> q = a + o[2][k] * M.col(2);
-#pragma GCC unroll 4
-                for (int j = 0; j < S; ++j) {
-                    const double wjk = w[1][j] * w[2][k];
-                    const Vec<3> r = q + o[1][j] * M.col(1);
-                    for (int i = 0; i < S; ++i) N[i] = w[0][i] * wjk;
-                    for (int e = 0; e < E; ++e) Nt[e] = N[e / D] * (r[e % D] + x[e]);
-                    row(rowStart(g, j, k), N, Nt);
-                }
+                const Lane3 r3 = q3 + o[1][j] * m1;
+                add(at(rowStart(g, j, k)), w[1][j] * w[2][k], __builtin_shufflevector(r3.v, zero, 4, 0, 1, 2));
             }
         }
     }
