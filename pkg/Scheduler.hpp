@@ -25,6 +25,7 @@
 #include <climits>
 #include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "Errors.hpp"
@@ -92,6 +93,20 @@ public:
     /// along the last axis lies in [s stripWidth, (s + 1) stripWidth), in increasing id order
     /// (with columns: by column, then id).
     const std::vector<int>& stripStart() const { return stripStart_; }
+    /// The slots [first, second) of the strips whose points' supports (S nodes from the base along
+    /// the last axis) can reach the nodes lo .. hi along the last axis (the strips are in slot
+    /// order, with columns too): a point of strip s has its base in [s stripWidth, (s + 1)
+    /// stripWidth - 1], and reaches [lo, hi] only from a base in [lo - (S - 1), hi]. Empty (0, 0)
+    /// when lo > hi or no strip can.
+    template <class K> std::pair<int, int> slotsReaching(int lo, int hi) const
+    {
+        if (lo > hi || stripStart_.size() < 2) return {0, 0};
+        const auto floorDiv = [](long long a) { return static_cast<int>(a >= 0 ? a / stripWidth : -((-a + stripWidth - 1) / stripWidth)); };
+        const int numStrips = static_cast<int>(stripStart_.size()) - 1;
+        const int first = std::max(0, floorDiv(static_cast<long long>(lo) - (K::S - 1))), last = std::min(numStrips - 1, floorDiv(hi));
+        if (first > last) return {0, 0};
+        return {stripStart_[first], stripStart_[last + 1]};
+    }
     /// Tile (s, c) (strip s, column c) holds the slots [tileStart()[t], tileStart()[t + 1]), t =
     /// s numColumns() + c, in increasing id order; without columns the tiles are the strips.
     const std::vector<int>& tileStart() const { return numColumns_ > 1 ? tileStart_ : stripStart_; }

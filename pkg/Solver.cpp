@@ -276,6 +276,10 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
     // are computed first, one point per lane (Stencil::computeRun), then the run scatters point
     // by point: the same stencils, and the same order of the contributions to each node.
     // With APIC, the run's lanes find each point's frame too (its divisions 4 or 8 at a time).
+    // Only the runs of the strips whose points can reach the marked box along the last axis
+    // test for it (Scheduler::slotsReaching: bin's strips are of the base nodes computeRun finds).
+    const std::pair<int, int> nearSlots = mapping ? schedule_.template slotsReaching<K>(markedLo_[D - 1], markedHi_[D - 1])
+                                                  : std::pair<int, int>{0, 0};
     const auto inRuns = [&](auto apic) {
         const auto point = body(apic, std::true_type{});
         return [&, point](int begin, int end) EMP_LAMBDA_INLINE {
@@ -286,7 +290,8 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
             // node, from the run's base nodes (Stencil::Box); those are mapped before the run
             // scatters (mapRun: no call in the scatter's loop).
             int near[stencilRun];
-            typename St::Box box{markedLo_, markedHi_, near, 0}, *const nearBox = mapping ? &box : nullptr;
+            typename St::Box box{markedLo_, markedHi_, near, 0};
+            typename St::Box* const nearBox = begin < nearSlots.second && end > nearSlots.first ? &box : nullptr;
             if constexpr (decltype(apic)::value)
                 St::template computeRun<stencilRun>(end - begin, x, g, half, &stencil_[begin], frames, &offset_[begin], nearBox);
             else

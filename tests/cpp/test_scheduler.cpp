@@ -162,6 +162,51 @@ TEST(Scheduler, BinningWithColumnsIsTheStableSortByStripThenColumn)
     EXPECT_THROW(narrow.bin<K>(x, g, 1), emp::ParameterError);
 }
 
+// The strips a box of nodes can be reached from (P2G tests only their points for the marked box
+// of a crack): against every point's support, and against each strip's bases by brute force.
+template <class Kern> void checkSlotsReaching(int columns)
+{
+    constexpr int S = Kern::S, w = Scheduler<D>::stripWidth;
+    Grid<D> g;
+    g.resize(Vec<D>::Zero(), 1.0, std::array<int, D>{17, 41});
+    std::mt19937 rng(31);
+    std::uniform_real_distribution<double> ux(1.0, 14.0), uy(1.0, 38.0);
+    std::vector<Vec<D>> x(4000);
+    for (auto& p : x) p = Vec<D>(ux(rng), uy(rng));
+    Scheduler<D> sch;
+    sch.setColumns(columns);
+    ASSERT_EQ(sch.bin<Kern>(x, g, 2), -1);
+    const int numStrips = static_cast<int>(sch.stripStart().size()) - 1;
+    int reached = 0, outside = 0;
+    for (int lo = -4; lo <= 43; ++lo)
+        for (int hi = lo - 1; hi <= lo + 6; ++hi) {
+            const auto [first, second] = sch.slotsReaching<Kern>(lo, hi);
+            // A strip can reach [lo, hi] when one of its bases b has [b, b + S - 1] meet it.
+            int sLo = numStrips, sHi = -1;
+            for (int s = 0; s < numStrips; ++s)
+                for (int b = s * w; b < (s + 1) * w; ++b)
+                    if (lo <= hi && b <= hi && b + S - 1 >= lo) sLo = std::min(sLo, s), sHi = std::max(sHi, s);
+            const auto expected = sLo <= sHi ? std::pair{sch.stripStart()[sLo], sch.stripStart()[sHi + 1]} : std::pair{0, 0};
+            ASSERT_EQ(std::pair(first, second), expected) << "nodes " << lo << " .. " << hi;
+            for (int k = 0; k < sch.size(); ++k) {
+                const int b = Kern::base(x[sch.order()[k]][D - 1]);
+                const bool reaches = lo <= hi && b <= hi && b + S - 1 >= lo;
+                if (reaches) ASSERT_TRUE(k >= first && k < second) << "slot " << k << ", base " << b << ", nodes " << lo << " .. " << hi;
+                reached += reaches;
+                outside += !(k >= first && k < second);
+            }
+        }
+    EXPECT_GT(reached, 10000);
+    EXPECT_GT(outside, 10000);  // most boxes leave most strips out
+}
+
+TEST(Scheduler, SlotsReachingHoldEveryPointWhoseSupportReachesTheNodes)
+{
+    checkSlotsReaching<GimpKernel>(0);
+    checkSlotsReaching<GimpKernel>(3);
+    checkSlotsReaching<emp::LinearKernel>(0);
+}
+
 TEST(Scheduler, SlotOfIsTheInverseOfTheOrder)
 {
     // Scheduler::slotOf (the traction and erosion stages read P2G's stencils by it) finds every
