@@ -857,18 +857,21 @@ EMP_ALWAYS_INLINE void Solver<D, K>::scatterInternalForce(const PassArrays& a, i
 
 template <int D, class K> void Solver<D, K>::stressAndInternalForce(double dt, int nThreads)
 {
-    // In runs of points (Scheduler::scatterRuns): the strains of a run, its law (lawOfRun), then
-    // its forces. The run's stencils stay in the L1 cache between the loops, and so do its
-    // stresses, which are not stored (MaterialPoints::stressOf gives them again).
+    // In runs of stressRun points of each strip (Scheduler::scatterStrips): the strains of a run,
+    // its law (lawOfRun), then its forces. The run's stencils stay in the L1 cache between the
+    // loops, and so do its stresses, which are not stored (MaterialPoints::stressOf gives them
+    // again).
     const Vec<D> gravity = settings_.gravity.head<D>();
     const auto& order = schedule_.order();
     const std::vector<NodeField> fields{{grid_.force.data()->data(), D}};
     std::function<void(int)> between;
     if (dist_) between = [&](int k) { dist_->afterPhase(k, schedule_.numPhases(), grid_, fields); };
     const auto pass = [&](auto withGravity, auto corotational) {
-        schedule_.scatterRuns(nThreads, stressRun, [&](int begin, int end) {
-            double J[stressRun];  // (the co-rotational update's det F, for the current volume)
-            PointTensor<D> sigma[stressRun];
+        // A run's update (its strains and law, or the co-rotational update) runs before the
+        // forces of the run before it: the update's lanes wait on long chains of divisions and
+        // square roots, and the previous run's scatter, which does not need their results, fills
+        // that time. Each node still receives the forces run by run, in slot order.
+        const auto update = [&](int begin, int end, double* J, PointTensor<D>* sigma) EMP_LAMBDA_INLINE {
             if constexpr (decltype(corotational)::value) {
                 corotationalOfRun(&order[begin], &stencil_[begin], end - begin, dt, J, sigma);
             } else {
@@ -880,18 +883,31 @@ template <int D, class K> void Solver<D, K>::stressAndInternalForce(double dt, i
                 withLaneIsa(strains);  // (the gradients' 4-lane sums in the lanes' width)
                 lawOfRun(&order[begin], end - begin, sigma);
             }
-            withLaneIsa([&]() EMP_LAMBDA_INLINE {  // (the rows' loops in the lanes' width)
-                const PassArrays a = passArrays();
-                for (int k = begin; k < end; ++k)
-                    scatterInternalForce<decltype(withGravity)::value, decltype(corotational)::value>(
-                        a, a.order[k], a.stencil[k], sigma[k - begin], gravity, decltype(corotational)::value ? J[k - begin] : 0.0);
-            });
             // The run's stresses checked: their sum is finite unless one is not (G2P's check
             // reports the point).
             double sum = 0;
             for (int i = 0; i < end - begin; ++i) sum += sumOf(sigma[i]);
             if (!std::isfinite(sum)) __atomic_store_n(&stressNonFinite_, 1, __ATOMIC_RELAXED);
             if (stressObserver_) stressObserver_(&order[begin], end - begin, sigma);
+        };
+        const auto forces = [&](int begin, int end, const double* J, const PointTensor<D>* sigma) EMP_LAMBDA_INLINE {
+            withLaneIsa([&]() EMP_LAMBDA_INLINE {  // (the rows' loops in the lanes' width)
+                const PassArrays a = passArrays();
+                for (int k = begin; k < end; ++k)
+                    scatterInternalForce<decltype(withGravity)::value, decltype(corotational)::value>(
+                        a, a.order[k], a.stencil[k], sigma[k - begin], gravity, decltype(corotational)::value ? J[k - begin] : 0.0);
+            });
+        };
+        schedule_.scatterStrips(nThreads, [&](int stripBegin, int stripEnd) {
+            double J[2][stressRun];  // (the co-rotational update's det F, for the current volume)
+            PointTensor<D> sigma[2][stressRun];
+            int previous = -1, now = 0;
+            for (int begin = stripBegin; begin < stripEnd; begin += stressRun, now ^= 1) {
+                update(begin, std::min(begin + stressRun, stripEnd), J[now], sigma[now]);
+                if (previous >= 0) forces(previous, begin, J[now ^ 1], sigma[now ^ 1]);
+                previous = begin;
+            }
+            if (previous >= 0) forces(previous, stripEnd, J[now ^ 1], sigma[now ^ 1]);
         }, between);
     };
     stressNonFinite_ = 0;
