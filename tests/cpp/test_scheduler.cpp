@@ -128,14 +128,21 @@ TEST(Scheduler, ScatterRunsEveryStripOnceInSlotOrderColourZeroFirst)
         }
 }
 
+/// n points spread uniformly over [1, xHi) x [1, yHi) (cells of a unit grid from the origin).
+std::vector<Vec<D>> uniformPoints(int n, double xHi, double yHi, unsigned seed)
+{
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> ux(1.0, xHi), uy(1.0, yHi);
+    std::vector<Vec<D>> x(n);
+    for (auto& p : x) p = Vec<D>(ux(rng), uy(rng));
+    return x;
+}
+
 TEST(Scheduler, BinningWithColumnsIsTheStableSortByStripThenColumn)
 {
     Grid<D> g;
     g.resize(Vec<D>::Zero(), 1.0, std::array<int, D>{40, 90});
-    std::mt19937 rng(23);
-    std::uniform_real_distribution<double> ux(1.0, 38.4), uy(1.0, 87.0);
-    std::vector<Vec<D>> x(30011);
-    for (auto& p : x) p = Vec<D>(ux(rng), uy(rng));
+    const std::vector<Vec<D>> x = uniformPoints(30011, 38.4, 87.0, 23);
     for (int cells : {2, 5, 37}) {
         Scheduler<D> sch;
         sch.setColumns(cells);
@@ -169,10 +176,7 @@ template <class Kern> void checkSlotsReaching(int columns)
     constexpr int S = Kern::S, w = Scheduler<D>::stripWidth;
     Grid<D> g;
     g.resize(Vec<D>::Zero(), 1.0, std::array<int, D>{17, 41});
-    std::mt19937 rng(31);
-    std::uniform_real_distribution<double> ux(1.0, 14.0), uy(1.0, 38.0);
-    std::vector<Vec<D>> x(4000);
-    for (auto& p : x) p = Vec<D>(ux(rng), uy(rng));
+    const std::vector<Vec<D>> x = uniformPoints(4000, 14.0, 38.0, 31);
     Scheduler<D> sch;
     sch.setColumns(columns);
     ASSERT_EQ(sch.bin<Kern>(x, g, 2), -1);
