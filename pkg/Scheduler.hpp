@@ -100,10 +100,10 @@ public:
     /// when lo > hi or no strip can.
     template <class K> std::pair<int, int> slotsReaching(int lo, int hi) const
     {
-        if (lo > hi || stripStart_.size() < 2) return {0, 0};
-        const auto floorDiv = [](long long a) { return static_cast<int>(a >= 0 ? a / stripWidth : -((-a + stripWidth - 1) / stripWidth)); };
+        if (lo > hi || hi < 0 || stripStart_.size() < 2) return {0, 0};  // (bases are >= 0)
         const int numStrips = static_cast<int>(stripStart_.size()) - 1;
-        const int first = std::max(0, floorDiv(static_cast<long long>(lo) - (K::S - 1))), last = std::min(numStrips - 1, floorDiv(hi));
+        const int first = static_cast<int>(std::max(0LL, static_cast<long long>(lo) - (K::S - 1)) / stripWidth);
+        const int last = std::min(numStrips - 1, hi / stripWidth);
         if (first > last) return {0, 0};
         return {stripStart_[first], stripStart_[last + 1]};
     }
