@@ -230,8 +230,12 @@ template <int D> int PhantomNodes<D>::update(const Grid<D>& g, int rings)
     if constexpr (D == 3) {
         planes_.clear();
         for (const auto& v : cracks_) planes_.push_back(planeOf<Plane>(v));
-        planesStale_ = false;
+    } else {
+        segments_.clear();
+        for (const auto& v : cracks_)
+            for (std::size_t i = 0; i + 1 < v.size(); ++i) segments_.push_back(segmentOf(v[i], v[i + 1]));
     }
+    planesStale_ = false;
     std::vector<long> cells, nodes;
     for (std::size_t c = 0; c < cracks_.size(); ++c) {
         cells.clear();

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "ElasticMaterial.hpp"
+#include "Inline.hpp"
 #include "Grid.hpp"
 #include "ZeroPages.hpp"
 
@@ -173,22 +174,31 @@ public:
     /// corners farther than margin times the segment's length). Conservative: false when unsure.
     bool clearOf(const Vec<D>& lo, const Vec<D>& hi, double margin) const
     {
-        if constexpr (D != 2) return false;
-        const double x0 = lo[0] - margin, x1 = hi[0] + margin, y0 = lo[1] - margin, y1 = hi[1] + margin;
-        for (const auto& v : cracks_)
-            for (std::size_t i = 0; i + 1 < v.size(); ++i) {
-                const Vec<2> a = v[i].template head<2>(), b = v[i + 1].template head<2>();
-                if (std::max(a[0], b[0]) < x0 || std::min(a[0], b[0]) > x1 || std::max(a[1], b[1]) < y0 ||
-                    std::min(a[1], b[1]) > y1)
-                    continue;
-                const double tol = margin * (b - a).norm();
+        if constexpr (D != 2) {
+            return false;
+        } else {
+            const double x0 = lo[0] - margin, x1 = hi[0] + margin, y0 = lo[1] - margin, y1 = hi[1] + margin;
+            // One segment: whether it lets the box pass (its box apart, or the box on one side).
+            const auto passes = [&](const Vec<2>& a, const Vec<2>& b, double xMin, double xMax, double yMin, double yMax,
+                                    double length) EMP_LAMBDA_INLINE {
+                if (xMax < x0 || xMin > x1 || yMax < y0 || yMin > y1) return true;
+                const double tol = margin * length;
                 const double o0 = phantom::orient(a, b, Vec<2>(x0, y0)), o1 = phantom::orient(a, b, Vec<2>(x1, y0));
                 const double o2 = phantom::orient(a, b, Vec<2>(x0, y1)), o3 = phantom::orient(a, b, Vec<2>(x1, y1));
-                if ((o0 > tol && o1 > tol && o2 > tol && o3 > tol) || (o0 < -tol && o1 < -tol && o2 < -tol && o3 < -tol))
-                    continue;
-                return false;
+                return (o0 > tol && o1 > tol && o2 > tol && o3 > tol) || (o0 < -tol && o1 < -tol && o2 < -tol && o3 < -tol);
+            };
+            if (!planesStale_) {  // (update()'s records: the same numbers, formed once a step)
+                for (const Segment& e : segments_)
+                    if (!passes(e.a, e.b, e.xMin, e.xMax, e.yMin, e.yMax, e.length)) return false;
+                return true;
             }
-        return true;
+            for (const auto& v : cracks_)
+                for (std::size_t i = 0; i + 1 < v.size(); ++i) {
+                    const Segment e = segmentOf(v[i], v[i + 1]);
+                    if (!passes(e.a, e.b, e.xMin, e.xMax, e.yMin, e.yMax, e.length)) return false;
+                }
+            return true;
+        }
     }
 
     /// Whether the segment p-q crosses crack c (the rule above).
@@ -218,7 +228,20 @@ private:
         int axis;
     };
     std::vector<Plane> planes_;
-    bool planesStale_ = true;
+    /// 2D: every crack segment as clearOf uses it (its ends, box and length), formed by update()
+    /// for the step's P2G; while stale, clearOf forms them per call.
+    struct Segment {
+        Vec<2> a, b;
+        double xMin, xMax, yMin, yMax, length;
+    };
+    static Segment segmentOf(const Vec<D>& a, const Vec<D>& b)
+    {
+        const Vec<2> a2 = a.template head<2>(), b2 = b.template head<2>();
+        return {a2, b2, std::min(a2[0], b2[0]), std::max(a2[0], b2[0]), std::min(a2[1], b2[1]), std::max(a2[1], b2[1]),
+                (b2 - a2).norm()};
+    }
+    std::vector<Segment> segments_;
+    bool planesStale_ = true;  ///< planes_ (3D) or segments_ (2D) not those of the vertices
     // Per regular node, zeros until written (ZeroPages): a rank of a distributed run writes
     // only near the cracks, and only those pages take memory.
     std::vector<char, ZeroPages<char>> mark_;

@@ -63,13 +63,14 @@ template <int D, class K> EMP_NOINLINE void Solver<D, K>::mapSupport(St& st, int
 template <int D, class K> EMP_NOINLINE void Solver<D, K>::mapRun(int begin, int end, const int* near)
 {
     const auto& order = schedule_.order();
+    typename St::SupportMemo memo;  // (the run's points one after another: a support's findings kept)
     for (int k = begin; k < end; ++k) {
         if (!near[k - begin]) continue;
         const int p = order[k];
         if (mapping_ == 2)
             stencil_[k].mapBodies(points_.body[p], grid_, phantom_, k);
         else
-            stencil_[k].mapAcrossCracks(points_.x[p], grid_, phantom_, k);
+            stencil_[k].mapAcrossCracks(points_.x[p], grid_, phantom_, k, &memo);
     }
 }
 

@@ -247,8 +247,21 @@ template <int D, class K> struct Stencil {
     /// Phantom-node rule: a marked node is replaced by its twin when the segment from the point
     /// to the node crosses the crack. Writes the S^D node indices into slot `slot` of Grid::remap
     /// when any node is marked.
-    void mapAcrossCracks(const Vec<D>& x, Grid<D>& g, const PhantomNodes<D>& ph, int slot)
+    /// What mapAcrossCracks finds of a support alone (2D): whether no crack comes near its box,
+    /// and which of its nodes are marked; for the points of one base node (`first`) after another.
+    struct SupportMemo {
+        int first = -1;
+        bool clear = false;
+        unsigned marked = 0;
+    };
+    void mapAcrossCracks(const Vec<D>& x, Grid<D>& g, const PhantomNodes<D>& ph, int slot, SupportMemo* memo = nullptr)
     {
+        // The point lies in its support's box (the nodes base .. base + S - 1): when no crack
+        // passes near that box, no segment from the point to a node can cross one. That and the
+        // marked nodes depend on the support alone: with a memo, the previous point's findings
+        // when it had the same base node (as the next point in a strip often has).
+        const bool known = D == 2 && memo && memo->first == first;
+        if (known && memo->clear) return;
         // The base node's lattice coordinates from x, whose stencil this is (baseAt: the same
         // integers as baseOf, without its integer divisions), once for every marked node.
         int base[D];
@@ -260,17 +273,22 @@ template <int D, class K> struct Stencil {
                 xs[i] = g.origin[0] + (base[0] + i) * g.h;
                 ys[i] = g.origin[1] + (base[1] + i) * g.h;
             }
-            // The point lies in its support's box (the nodes base .. base + S - 1): when no crack
-            // passes near that box, no segment from the point to a node can cross one.
-            if (ph.clearOf(Vec<2>(xs[0], ys[0]), Vec<2>(xs[S - 1], ys[S - 1]), 1e-6 * g.h)) return;
             int node[NS];
-            unsigned marked = 0;
-            for (int k = 0; k < NS; ++k) {
-                node[k] = regularNode(g, k);
-                if (ph.marked(node[k])) marked |= 1u << k;
+            for (int k = 0; k < NS; ++k) node[k] = regularNode(g, k);
+            SupportMemo m;
+            if (known) {
+                m = *memo;
+            } else {
+                m.first = first;
+                m.clear = ph.clearOf(Vec<2>(xs[0], ys[0]), Vec<2>(xs[S - 1], ys[S - 1]), 1e-6 * g.h);
+                if (!m.clear)
+                    for (int k = 0; k < NS; ++k)
+                        if (ph.marked(node[k])) m.marked |= 1u << k;
+                if (memo) *memo = m;
+                if (m.clear) return;
             }
             // (PhantomNodes::mapSupport: map() for each marked node, the whole support at once.)
-            if (!marked || !ph.template mapSupport<S>(x, xs, ys, marked, node)) return;
+            if (!m.marked || !ph.template mapSupport<S>(x, xs, ys, m.marked, node)) return;
             remap = slot * NS;
             std::copy(node, node + NS, &g.remap[remap]);
         } else {

@@ -540,17 +540,21 @@ TEST(PhantomMarking, FacesMapToTheTwinsOfTheOtherSide2D)
 /// the support maps to ph.map(x, I, Grid::nodePosition(I)), the others stay. Points on a grid
 /// whose spacing and origin are not round numbers, around a polyline crack, some exactly on its
 /// vertices and segments.
+/// With `memo`, the points in turn share one Stencil::SupportMemo (as P2G's runs do); memoHits
+/// counts the points whose support the memo already held.
 template <int D, class K>
 void expectStencilMappingIsThePlainRule(const Grid<D>& g, const PhantomNodes<D>& ph, const std::vector<Vec<D>>& xs,
-                                        int& twinsUsed, int& markedButRegular)
+                                        int& twinsUsed, int& markedButRegular, bool memo = false, int* memoHits = nullptr)
 {
     using St = emp::Stencil<D, K>;
     Grid<D> gm = g;
     gm.remap.assign(St::NS, -7);
+    typename St::SupportMemo m;
     for (const Vec<D>& x : xs) {
         St st;
         st.compute(x, gm, emp::HalfWidth(0.25));
-        st.mapAcrossCracks(x, gm, ph, 0);
+        if (memoHits) *memoHits += memo && m.first == st.first;
+        st.mapAcrossCracks(x, gm, ph, 0, memo ? &m : nullptr);
         bool changed = false, marked = false;
         int base[D];
         for (int d = 0; d < D; ++d) base[d] = st.baseOf(gm, d);
@@ -601,6 +605,34 @@ TEST(PhantomMarking, StencilMappingIsThePlainRule2D)
     expectStencilMappingIsThePlainRule<2, GimpKernel>(g, ph, xs, twins, regular);
     EXPECT_GT(twins, 300);
     EXPECT_GT(regular, 300);  // near the cracks, yet no segment to a node crosses one
+    {
+        // The points in the order of their base nodes (P2G's runs: often several of one support
+        // after another), a memo of the support's findings carried from point to point.
+        std::vector<std::pair<int, int>> byBase;
+        for (std::size_t i = 0; i < xs.size(); ++i) {
+            emp::Stencil<2, GimpKernel> st;
+            st.compute(xs[i], g, emp::HalfWidth(0.25));
+            byBase.emplace_back(st.first, static_cast<int>(i));
+        }
+        std::sort(byBase.begin(), byBase.end());
+        std::vector<Vec<2>> sorted;
+        for (const auto& b : byBase) sorted.push_back(xs[b.second]);
+        int memoTwins = 0, memoRegular = 0, hits = 0;
+        expectStencilMappingIsThePlainRule<2, GimpKernel>(g, ph, sorted, memoTwins, memoRegular, true, &hits);
+        EXPECT_EQ(memoTwins, twins);
+        EXPECT_EQ(memoRegular, regular);
+        EXPECT_GT(hits, 3000);
+    }
+    {
+        // The cracks' geometry stale (moved vertices not yet update()d: clearOf from the
+        // vertices, not from update()'s segment records): the same mapping.
+        PhantomNodes<2> stale = ph;
+        for (std::size_t c = 0; c < stale.numCracks(); ++c) stale.vertices(static_cast<int>(c));
+        int staleTwins = 0, staleRegular = 0;
+        expectStencilMappingIsThePlainRule<2, GimpKernel>(g, stale, xs, staleTwins, staleRegular);
+        EXPECT_EQ(staleTwins, twins);
+        EXPECT_EQ(staleRegular, regular);
+    }
     int linearTwins = 0, linearRegular = 0;
     PhantomNodes<2> ph1;
     ph1.addCrack(crack);
