@@ -20,8 +20,8 @@
 #include <vector>
 
 #include "ElasticMaterial.hpp"
-#include "Inline.hpp"
 #include "Grid.hpp"
+#include "Inline.hpp"
 #include "ZeroPages.hpp"
 
 namespace emp {

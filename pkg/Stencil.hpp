@@ -244,9 +244,6 @@ template <int D, class K> struct Stencil {
         return true;
     }
 
-    /// Phantom-node rule: a marked node is replaced by its twin when the segment from the point
-    /// to the node crosses the crack. Writes the S^D node indices into slot `slot` of Grid::remap
-    /// when any node is marked.
     /// What mapAcrossCracks finds of a support alone (2D): whether no crack comes near its box,
     /// and which of its nodes are marked; for the points of one base node (`first`) after another.
     struct SupportMemo {
@@ -254,6 +251,10 @@ template <int D, class K> struct Stencil {
         bool clear = false;
         unsigned marked = 0;
     };
+    /// Phantom-node rule: a marked node is replaced by its twin when the segment from the point
+    /// to the node crosses the crack. Writes the S^D node indices into slot `slot` of Grid::remap
+    /// when any node is marked. `memo` (2D; may be null): the findings of the support of the
+    /// point mapped before, with the same cracks' marks (Solver::mapRun's run).
     void mapAcrossCracks(const Vec<D>& x, Grid<D>& g, const PhantomNodes<D>& ph, int slot, SupportMemo* memo = nullptr)
     {
         // The point lies in its support's box (the nodes base .. base + S - 1): when no crack
