@@ -179,24 +179,21 @@ public:
         } else {
             const double x0 = lo[0] - margin, x1 = hi[0] + margin, y0 = lo[1] - margin, y1 = hi[1] + margin;
             // One segment: whether it lets the box pass (its box apart, or the box on one side).
-            const auto passes = [&](const Vec<2>& a, const Vec<2>& b, double xMin, double xMax, double yMin, double yMax,
-                                    double length) EMP_LAMBDA_INLINE {
-                if (xMax < x0 || xMin > x1 || yMax < y0 || yMin > y1) return true;
-                const double tol = margin * length;
-                const double o0 = phantom::orient(a, b, Vec<2>(x0, y0)), o1 = phantom::orient(a, b, Vec<2>(x1, y0));
-                const double o2 = phantom::orient(a, b, Vec<2>(x0, y1)), o3 = phantom::orient(a, b, Vec<2>(x1, y1));
+            const auto passes = [&](const Segment& e) EMP_LAMBDA_INLINE {
+                if (e.xMax < x0 || e.xMin > x1 || e.yMax < y0 || e.yMin > y1) return true;
+                const double tol = margin * e.length;
+                const double o0 = phantom::orient(e.a, e.b, Vec<2>(x0, y0)), o1 = phantom::orient(e.a, e.b, Vec<2>(x1, y0));
+                const double o2 = phantom::orient(e.a, e.b, Vec<2>(x0, y1)), o3 = phantom::orient(e.a, e.b, Vec<2>(x1, y1));
                 return (o0 > tol && o1 > tol && o2 > tol && o3 > tol) || (o0 < -tol && o1 < -tol && o2 < -tol && o3 < -tol);
             };
             if (!planesStale_) {  // (update()'s records: the same numbers, formed once a step)
                 for (const Segment& e : segments_)
-                    if (!passes(e.a, e.b, e.xMin, e.xMax, e.yMin, e.yMax, e.length)) return false;
+                    if (!passes(e)) return false;
                 return true;
             }
             for (const auto& v : cracks_)
-                for (std::size_t i = 0; i + 1 < v.size(); ++i) {
-                    const Segment e = segmentOf(v[i], v[i + 1]);
-                    if (!passes(e.a, e.b, e.xMin, e.xMax, e.yMin, e.yMax, e.length)) return false;
-                }
+                for (std::size_t i = 0; i + 1 < v.size(); ++i)
+                    if (!passes(segmentOf(v[i], v[i + 1]))) return false;
             return true;
         }
     }

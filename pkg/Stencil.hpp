@@ -262,7 +262,7 @@ template <int D, class K> struct Stencil {
         // marked nodes depend on the support alone: with a memo, the previous point's findings
         // when it had the same base node (as the next point in a strip often has).
         const bool known = D == 2 && memo && memo->first == first;
-        if (known && memo->clear) return;
+        if (known && (memo->clear || !memo->marked)) return;
         // The base node's lattice coordinates from x, whose stencil this is (baseAt: the same
         // integers as baseOf, without its integer divisions), once for every marked node.
         int base[D];
