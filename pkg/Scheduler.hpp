@@ -83,6 +83,10 @@ public:
         return numColumns_ > 1 ? binTiles<K, true>(x, g, nThreads, numStrips) : binTiles<K, false>(x, g, nThreads, numStrips);
     }
 
+    /// Whether the last bin kept the order of the one before (every point's key unchanged,
+    /// for as many points, keys and workers), having computed only the keys.
+    bool reusedLastBin() const { return reused_; }
+
     /// Worker t's strips are [split()[t], split()[t + 1]): contiguous, each range holding about
     /// an equal share of the points (to a strip), set by the last bin.
     const std::vector<int>& split() const { return split_; }
@@ -268,19 +272,19 @@ private:
     {
         const int nc = columns ? numColumns_ : 1, numKeys = numStrips * nc;
         const int np = static_cast<int>(x.size());
-        keyOf_.resize(np);
-        // A stable counting sort in chunks of points: each chunk counts its points per key (strip
-        // or tile), and fills its slots after those of the chunks before it in each key. The
-        // order is that of a serial stable sort (by key, then id) whatever the chunks.
         const int nChunks = std::max(1, std::min(nThreads, np / minChunk));
         const auto chunkBegin = [&](int c) { return static_cast<int>(static_cast<long long>(np) * c / nChunks); };
-        chunkFill_.assign(static_cast<std::size_t>(nChunks) * numKeys, 0);
-        int firstOffGrid = INT_MAX;
-#pragma omp parallel for schedule(static, 1) num_threads(nThreads) reduction(min : firstOffGrid)
+        // The last bin's order, slot ranges and split still hold when every key is the one it
+        // had then, for as many points, keys and workers: the order is a function of the keys
+        // alone. Then only the keys are computed (their comparison rides in the same loop).
+        const bool sameShape = binned_ && np == static_cast<int>(keyOf_.size()) && numKeys == binnedKeys_ &&
+                               nc == binnedColumns_ && nThreads == binnedThreads_;
+        keyOf_.resize(np);
+        int firstOffGrid = INT_MAX, changed = 0;
+#pragma omp parallel for schedule(static, 1) num_threads(nThreads) reduction(min : firstOffGrid) reduction(| : changed)
         for (int c = 0; c < nChunks; ++c) {
-            int* count = &chunkFill_[static_cast<std::size_t>(c) * numKeys];
             // (The bounds are taken first: in the condition, chunkBegin's 64-bit division ran at
-            // every point, the stores through count possibly changing what it reads.)
+            // every point, the stores through the keys possibly changing what it reads.)
             const int begin = chunkBegin(c), end = chunkBegin(c + 1);
             // The keys first, in one loop without a branch per point that GCC vectorises (in the
             // lanes' width, pkg/Lanes.hpp); a point off the grid gets key -1, and only then does a
@@ -288,7 +292,7 @@ private:
             // first axis off the grid, this took about 4 % of the 2D step.)
             static_assert(sizeof(Vec<D>) == D * sizeof(double), "positions as rows of D numbers");
             int* const keys = keyOf_.data();
-            int anyOff = 0;
+            int anyOff = 0, anyChanged = 0;
             withLaneIsa([&]() EMP_LAMBDA_INLINE {
                 // (All of it local to the loop's copy: read through the closure, GCC would not
                 // vectorise the loop for fear that the keys' stores change it.)
@@ -299,7 +303,7 @@ private:
                 for (int d = 0; d < D; ++d) origin[d] = g.origin[d], last[d] = g.n[d] - K::S;
                 const double invh = g.invh;
                 const int cells = columnCells_, from = begin, to = end;
-                int any = 0;
+                int any = 0, moved = 0;
                 for (int p = from; p < to; ++p) {
                     int off = 0, b = 0, column = 0;
                     for (int d = 0; d < D; ++d) {
@@ -308,21 +312,37 @@ private:
                         if (columns && d == 0) column = b / cells;
                     }
                     // b is now the base node along the last axis (the key's strip).
-                    out[p] = off ? -1 : columns ? b / stripWidth * nc + column : b / stripWidth;
+                    const int key = off ? -1 : columns ? b / stripWidth * nc + column : b / stripWidth;
+                    moved |= key != out[p];
+                    out[p] = key;
                     any |= off;
                 }
                 anyOff = any;
+                anyChanged = moved;
             });
-            if (anyOff) {
-                firstOffGrid = std::min(firstOffGrid, static_cast<int>(std::find(keys + begin, keys + end, -1) - keys));
-                continue;
-            }
+            changed |= anyChanged;
+            if (anyOff) firstOffGrid = std::min(firstOffGrid, static_cast<int>(std::find(keys + begin, keys + end, -1) - keys));
+        }
+        binned_ = reused_ = false;
+        if (firstOffGrid != INT_MAX) return firstOffGrid;
+        if (sameShape && !changed) {
+            binned_ = reused_ = true;
+            return -1;
+        }
+        // A stable counting sort in chunks of points: each chunk counts its points per key (strip
+        // or tile), and fills its slots after those of the chunks before it in each key. The
+        // order is that of a serial stable sort (by key, then id) whatever the chunks.
+        chunkFill_.assign(static_cast<std::size_t>(nChunks) * numKeys, 0);
+#pragma omp parallel for schedule(static, 1) num_threads(nThreads)
+        for (int c = 0; c < nChunks; ++c) {
+            int* count = &chunkFill_[static_cast<std::size_t>(c) * numKeys];
+            const int begin = chunkBegin(c), end = chunkBegin(c + 1);
             // Points in id order mostly come in runs of one key (a row of points lies in one
             // strip): each run is counted in a register and added at its end. (++count[key]
             // point by point waited on the store of the same counter by the point before.)
             int runKey = -1, run = 0;
             for (int p = begin; p < end; ++p) {
-                const int key = keys[p];
+                const int key = keyOf_[p];
                 if (key != runKey) {
                     if (run) count[runKey] += run;
                     runKey = key;
@@ -332,7 +352,6 @@ private:
             }
             if (run) count[runKey] += run;
         }
-        if (firstOffGrid != INT_MAX) return firstOffGrid;
         // Key starts, and each chunk's first slot in each key.
         std::vector<int>& start = columns ? tileStart_ : stripStart_;
         start.assign(numKeys + 1, 0);
@@ -369,6 +388,10 @@ private:
             if (runKey >= 0) fill[runKey] = next;
         }
         splitStrips(nThreads);
+        binned_ = true;
+        binnedKeys_ = numKeys;
+        binnedColumns_ = nc;
+        binnedThreads_ = nThreads;
         return -1;
     }
 
@@ -391,6 +414,10 @@ private:
     static constexpr int minChunk = 4096;
     std::vector<int> order_, stripStart_, tileStart_, keyOf_, chunkFill_, split_;
     int columnCells_ = 0, numColumns_ = 1;
+    /// Whether order_ and the slot ranges are those of keyOf_, binned for binnedKeys_ keys,
+    /// binnedColumns_ columns and binnedThreads_ workers (bin's reuse of an unchanged order).
+    bool binned_ = false, reused_ = false;
+    int binnedKeys_ = 0, binnedColumns_ = 0, binnedThreads_ = 0;
     bool separatePhases_ = false;
     int deferred_[2] = {-1, -1};
 };

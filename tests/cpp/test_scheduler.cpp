@@ -169,6 +169,86 @@ TEST(Scheduler, BinningWithColumnsIsTheStableSortByStripThenColumn)
     EXPECT_THROW(narrow.bin<K>(x, g, 1), emp::ParameterError);
 }
 
+// bin keeps the last order when no point's key changed (it then computes the keys alone): after
+// every change of the points, the workers or the columns, one scheduler binned again and again
+// gives what a fresh one gives for the same input (order, slot ranges, split), and it reused its
+// order exactly when every key, the number of points, keys and workers were those of the bin
+// before.
+TEST(Scheduler, BinningAgainKeepsTheOrderOnlyWhereAFreshBinningGivesIt)
+{
+    Grid<D> g;
+    g.resize(Vec<D>::Zero(), 1.0, std::array<int, D>{40, 90});
+    std::vector<Vec<D>> x = uniformPoints(12011, 38.4, 87.0, 41);
+    Scheduler<D> sch;
+    int columns = 0, rebins = 0, reuses = 0;
+    const auto binAndCompare = [&](int T, bool expectReuse, const char* what) {
+        Scheduler<D> fresh;
+        fresh.setColumns(columns);
+        sch.setColumns(columns);
+        const int off = fresh.bin<K>(x, g, T);
+        ASSERT_EQ(sch.bin<K>(x, g, T), off) << what;
+        EXPECT_EQ(sch.reusedLastBin(), expectReuse) << what;
+        EXPECT_FALSE(fresh.reusedLastBin()) << what;
+        (sch.reusedLastBin() ? reuses : rebins) += 1;
+        if (off >= 0) return;
+        EXPECT_EQ(sch.order(), fresh.order()) << what;
+        EXPECT_EQ(sch.stripStart(), fresh.stripStart()) << what;
+        EXPECT_EQ(sch.tileStart(), fresh.tileStart()) << what;
+        EXPECT_EQ(sch.split(), fresh.split()) << what;
+        EXPECT_EQ(sch.numColumns(), fresh.numColumns()) << what;
+        for (int p = 0; p < static_cast<int>(x.size()); p += 97) EXPECT_EQ(sch.slotOf(p), fresh.slotOf(p)) << what;
+    };
+    // Moves that keep every point's base node along y in its strip (bases 2s and 2s + 1: uGIMP's
+    // base is floor(y + 1/2) - 1, so y in [2s + 1/2, 2s + 5/2) stays in strip s).
+    const auto jiggle = [&](double amount) {
+        for (auto& p : x) {
+            const int s = Scheduler<D>::stripOf<K>(p, g);
+            p[0] = std::clamp(p[0] + amount, 1.0, 38.4);
+            p[1] = std::clamp(p[1] + amount, 2.0 * s + 0.5, 2.0 * s + 2.5 - 1e-9);
+        }
+    };
+    binAndCompare(2, false, "first bin");
+    binAndCompare(2, true, "the same positions");
+    jiggle(0.3);
+    binAndCompare(2, true, "moves within the strips");
+    // Two points trade places: in one strip the keys stay, in two strips they change.
+    const auto strip = [&](int p) { return Scheduler<D>::stripOf<K>(x[p], g); };
+    int same = 11, other = 11;
+    while (strip(same) != strip(10)) ++same;
+    while (strip(other) == strip(10)) ++other;
+    std::swap(x[10], x[same]);
+    binAndCompare(2, true, "two points of one strip swapped");
+    std::swap(x[10], x[other]);
+    binAndCompare(2, false, "two points of two strips swapped");
+    x[500][1] += 6.0;  // one point three strips up
+    binAndCompare(2, false, "one point to another strip");
+    binAndCompare(2, true, "unchanged after it");
+    binAndCompare(3, false, "three workers");
+    binAndCompare(3, true, "three workers again");
+    binAndCompare(1, false, "one worker");
+    x.push_back(x[7]);  // a point more, in a strip that has points
+    binAndCompare(1, false, "a point added");
+    binAndCompare(1, true, "unchanged after it");
+    const Vec<D> keep = x[300];
+    x[300] = Vec<D>(-5.0, 3.0);
+    binAndCompare(1, false, "a point off the grid");
+    x[300] = keep;
+    binAndCompare(1, false, "back on the grid");
+    binAndCompare(1, true, "unchanged after it");
+    columns = 5;
+    binAndCompare(2, false, "columns");
+    binAndCompare(2, true, "columns, unchanged");
+    x[900][0] = x[900][0] < 20.0 ? x[900][0] + 10.0 : x[900][0] - 10.0;  // to another column of its strip
+    binAndCompare(2, false, "a point to another column");
+    binAndCompare(2, true, "columns, unchanged after it");
+    columns = 0;
+    binAndCompare(2, false, "no columns again");
+    g.resize(Vec<D>::Zero(), 1.0, std::array<int, D>{40, 94});  // another grid: more strips
+    binAndCompare(2, false, "a taller grid");
+    EXPECT_EQ(reuses, 9);
+    EXPECT_GE(rebins, 12);
+}
+
 // The strips a box of nodes can be reached from (P2G tests only their points for the marked box
 // of a crack): against every point's support, and against each strip's bases by brute force.
 template <class Kern> void checkSlotsReaching(int columns)
