@@ -1169,13 +1169,17 @@ template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThre
                 });
             a = a3.vec();
             vg = v3.vec();
-        } else if (st.regular()) {  // (the same sums, the nodes' addresses from each row's first)
-            st.forEachRow(g, [&](int I0, const double* N) EMP_LAMBDA_INLINE {
-                for (int i = 0; i < S; ++i) {
-                    a += N[i] * A.force[I0 + i];
-                    vg += N[i] * A.velocity[I0 + i];
-                }
-            });
+        } else if (st.regular()) {
+            if constexpr (S == 3) {  // (the same products summed by columns, in vectors: Stencil::columnSums2)
+                st.columnSums2(g, A.force, A.velocity, a, vg);
+            } else {  // (the nodes' addresses from each row's first)
+                st.forEachRow(g, [&](int I0, const double* N) EMP_LAMBDA_INLINE {
+                    for (int i = 0; i < S; ++i) {
+                        a += N[i] * A.force[I0 + i];
+                        vg += N[i] * A.velocity[I0 + i];
+                    }
+                });
+            }
         } else {
             st.forEach(g, [&](int I, double N, const Vec<D>&) {
                 a += N * A.force[I];

@@ -706,6 +706,32 @@ template <int D, class K> void checkRowForms()
                 ASSERT_EQ(std::memcmp(r3.data(), a1.data(), sizeof a1), 0) << emp::name(w);
                 ASSERT_EQ(std::memcmp(e3.data(), a1.data(), sizeof a1), 0) << emp::name(w);
             }
+            if constexpr (D == 2 && S == 3) {
+                // G2P's sums by columns (Stencil::columnSums2): bitwise the plain column order
+                // (each column's sum over the rows, then (column 0 + column 1) + column 2) in every
+                // lane width, and the node-by-node sums to round-off.
+                std::vector<Vec<D>> field1(nodes);
+                for (int I = 0; I < nodes; ++I) field1[I] = Vec<D>(field0[I][1] - 0.5, 2.0 * field0[I][0]);
+                Vec<D> ca, cb;
+                emp::withLaneIsa([&]() EMP_LAMBDA_INLINE { st.columnSums2(g, field0.data(), field1.data(), ca, cb); });
+                const auto plain = [&](const std::vector<Vec<D>>& f, int d) {
+                    double c[S], sizeOf = 0, nodeSum = 0;
+                    for (int i = 0; i < S; ++i)
+                        for (int j = 0; j < S; ++j) {
+                            const double term = (st.w[0][i] * st.w[1][j]) * f[st.rowStart(g, j) + i][d];
+                            c[i] = j == 0 ? term : c[i] + term;
+                            sizeOf += std::abs(term);
+                        }
+                    tabled.forEach(g, [&](int I, double N, const Vec<D>&) { nodeSum += N * f[I][d]; });
+                    return std::array<double, 3>{(c[0] + c[1]) + c[2], nodeSum, sizeOf};
+                };
+                for (int d = 0; d < D; ++d)
+                    for (const auto& [sum, f] : {std::pair{ca[d], &field0}, std::pair{cb[d], &field1}}) {
+                        const auto [columns, nodeSum, sizeOf] = plain(*f, d);
+                        ASSERT_EQ(std::memcmp(&sum, &columns, sizeof sum), 0) << emp::name(w) << ", component " << d;
+                        ASSERT_NEAR(sum, nodeSum, 2e-15 * sizeOf) << emp::name(w);
+                    }
+            }
             ++compared;
         }
     }
