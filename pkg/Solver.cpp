@@ -124,9 +124,9 @@ template <int D, class K> void Solver<D, K>::schedulePoints(int nThreads)
     }
     stencil_.resize(points_.size());
     if (settings_.transfer == Transfer::apic)
-        offset_.resize(points_.size());
+        offset_.resize(D * points_.size());
     else if (!offset_.empty())
-        std::vector<typename St::AffineOffset>().swap(offset_);
+        std::vector<double>().swap(offset_);
 }
 
 template <int D, class K> void Solver<D, K>::markCrackedNodes()
@@ -243,7 +243,7 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
                 // point's frame: Stencil::affineFrameAlong.)
                 const typename St::AffineFrame f = frame ? *frame : st.affineFrame(P.x[p], g);
                 if (!frame)  // (G2P reads the offsets; computeRun stored those of a run)
-                    for (int d = 0; d < D; ++d) A.offset[k].b[d] = f.b[d];
+                    for (int d = 0; d < D; ++d) A.offset[d][k] = f.b[d];
                 double u[D][S];
                 for (int d = 0; d < D; ++d)
                     for (int i = 0; i < S; ++i) u[d][i] = f.b[d] + i;
@@ -285,7 +285,9 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
         return [&, point](int begin, int end) EMP_LAMBDA_INLINE {
             const auto& order = schedule_.order();
             const auto x = [&](int i) -> const Vec<D>& { return points_.x[order[begin + i]]; };
-            typename St::AffineFrame frames[decltype(apic)::value ? stencilRun : 1];
+            typename St::template AffineRun<stencilRun> frames;
+            if constexpr (decltype(apic)::value)
+                for (int d = 0; d < D; ++d) frames.b[d] = &offset_[d * stencil_.size() + begin];
             // Near a crack (or bodies in one grid), which points' supports may touch a marked
             // node, from the run's base nodes (Stencil::Box); those are mapped before the run
             // scatters (mapRun: no call in the scatter's loop).
@@ -293,13 +295,20 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
             typename St::Box box{markedLo_, markedHi_, near, 0};
             typename St::Box* const nearBox = begin < nearSlots.second && end > nearSlots.first ? &box : nullptr;
             if constexpr (decltype(apic)::value)
-                St::template computeRun<stencilRun>(end - begin, x, g, half, &stencil_[begin], frames, &offset_[begin], nearBox);
+                St::template computeRun<stencilRun>(end - begin, x, g, half, &stencil_[begin], frames, nearBox);
             else
                 St::template computeRun<stencilRun>(end - begin, x, g, half, &stencil_[begin], nearBox);
             if (box.any) mapRun(begin, end, near);
             withLaneIsa([&]() EMP_LAMBDA_INLINE {  // (the rows' loops in the lanes' width)
                 const PassArrays A = passArrays();
-                for (int k = begin; k < end; ++k) point(A, k, decltype(apic)::value ? &frames[k - begin] : nullptr);
+                for (int k = begin; k < end; ++k) {
+                    if constexpr (decltype(apic)::value) {
+                        const typename St::AffineFrame f = frames.frame(k - begin);
+                        point(A, k, &f);
+                    } else {
+                        point(A, k, nullptr);
+                    }
+                }
             });
         };
     };
@@ -1196,12 +1205,25 @@ template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThre
         const auto& P = A.P;
         const int p = A.order[k];
         const St& st = A.stencil[k];
-        double u[D][S];  // offsets in cells, from P2G's frame (the same numbers as cellOffsets)
-        for (int d = 0; d < D; ++d)
-            for (int i = 0; i < S; ++i) u[d][i] = A.offset[k].b[d] + i;
         Vec<D> vg;
         Mat<D> Bu;  // B_p / h
-        st.affineSums(g, u, [&](int I) -> const Vec<D>& { return A.velocity[I]; }, vg, Bu);
+        // Offsets in cells, from P2G's frame (the same numbers as cellOffsets).
+        const auto sums = [&]() EMP_LAMBDA_INLINE {
+            double u[D][S];
+            for (int d = 0; d < D; ++d)
+                for (int i = 0; i < S; ++i) u[d][i] = A.offset[d][k] + i;
+            st.affineSums(g, u, [&](int I) -> const Vec<D>& { return A.velocity[I]; }, vg, Bu);
+        };
+        if constexpr (S == 3) {  // (on a regular support: Stencil::affineColumnSums2, affineRowSums3)
+            if (!st.regular())
+                sums();
+            else if constexpr (D == 2)
+                st.affineColumnSums2(g, A.offset[0][k], A.offset[1][k], A.velocity, vg, Bu);
+            else
+                st.affineRowSums3(g, A.offset[0][k], A.offset[1][k], A.offset[2][k], A.velocity, vg, Bu);
+        } else {
+            sums();
+        }
         // m tr(C_old D C^T) / 2 at this position (C = B D^-1): tr(C_old B^T) = tr(Cu Bu^T) with
         // P2G's Cu = h C_old.
         double affine = 0;

@@ -282,14 +282,17 @@ private:
         Vec<D>* momentum;
         Vec<D>* velocity;
         Vec<D>* force;
-        typename St::AffineOffset* offset;  ///< APIC: offset_'s elements (else null)
-        double* massMomentum;               ///< Grid::massMomentum (P2G's sums)
+        double* offset[D];     ///< APIC: offset_'s array of each direction (offset[d][k]; else null)
+        double* massMomentum;  ///< Grid::massMomentum (P2G's sums)
     };
     PassArrays passArrays()
     {
-        return {points_.view(), schedule_.order().data(), stencil_.data(), grid_.mass.data(),
-                grid_.momentum.data(), grid_.velocity.data(), grid_.force.data(), offset_.data(),
-                grid_.massMomentum.data()};
+        PassArrays a{points_.view(), schedule_.order().data(), stencil_.data(), grid_.mass.data(),
+                     grid_.momentum.data(), grid_.velocity.data(), grid_.force.data(), {},
+                     grid_.massMomentum.data()};
+        const std::size_t n = offset_.size() / D;
+        for (int d = 0; d < D; ++d) a.offset[d] = offset_.empty() ? nullptr : offset_.data() + d * n;
+        return a;
     }
     /// Eq 27's velocity gradient at point p, from the nodal masses and velocities of A (a
     /// PassArrays, or any A with A.mass, A.velocity and the points' velocities A.P.v).
@@ -407,9 +410,10 @@ private:
     std::vector<TractionCondition> tractions_;
     Scheduler<D> schedule_;
     std::vector<St> stencil_;  ///< stencil_[k] is that of point schedule_.order()[k] in this step
-    /// APIC: offset_[k] holds the offsets of P2G's frame (Stencil::AffineFrame) of the point in
-    /// slot k, which G2P reads (the point has not moved since); empty with FLIP.
-    std::vector<typename St::AffineOffset> offset_;
+    /// APIC: the offsets b[d] of P2G's frame (Stencil::AffineFrame) of the point in slot k, at
+    /// offset_[d * n + k] for n points (one array per direction, which computeRun's lanes write
+    /// as they are), read by G2P (the point has not moved since); empty with FLIP.
+    std::vector<double> offset_;
     std::shared_ptr<Distribution<D>> dist_;
     GhostPoints<D> ghosts_;
     std::vector<std::uint64_t> rowMarks_;  ///< Support::pointsInRows' bitmap by point id (zero between calls)

@@ -65,9 +65,18 @@ template <int D, class K> struct Stencil {
     struct AffineFrame {
         double b[D], r[D];
     };
-    /// The frame's offsets b alone: what G2P needs of it (Solver::offset_).
-    struct AffineOffset {
-        double b[D];
+    /// The frames of a run of up to R points (computeRun), by direction: point i's r[d] at
+    /// r[d][i], and its offsets written to b[d][i] (the caller's arrays: Solver::offset_, which
+    /// G2P reads), with no copy into per-point frames in between.
+    template <int R> struct AffineRun {
+        double* b[D];
+        alignas(64) double r[D][R];
+        EMP_ALWAYS_INLINE AffineFrame frame(int i) const
+        {
+            AffineFrame f;
+            for (int d = 0; d < D; ++d) f.b[d] = b[d][i], f.r[d] = r[d][i];
+            return f;
+        }
     };
     /// Index of the support's base node (its lowest corner) on the regular lattice. One number
     /// instead of the D lattice coordinates (8 B per point less in 2D and 3D: issue 12 item 3);
@@ -126,19 +135,19 @@ template <int D, class K> struct Stencil {
     static EMP_ALWAYS_INLINE void computeRun(int n, X&& x, const Grid<D>& g, const HalfWidth& lp, Stencil* out,
                                              Box* box = nullptr)
     {
-        computeRun<R, false>(n, x, g, lp, out, nullptr, nullptr, box);
+        computeRun<R, false>(n, x, g, lp, out, static_cast<AffineRun<R>*>(nullptr), box);
     }
-    /// computeRun with each point's APIC frame (affineFrame) too, from the same lanes, and its
-    /// offsets once more in `offsets` (kept for G2P).
+    /// computeRun with each point's APIC frame (affineFrame) too, from the same lanes, into
+    /// `frames` (point i's frame: frames.frame(i)).
     template <int R, class X>
     static EMP_ALWAYS_INLINE void computeRun(int n, X&& x, const Grid<D>& g, const HalfWidth& lp, Stencil* out,
-                                             AffineFrame* frames, AffineOffset* offsets, Box* box = nullptr)
+                                             AffineRun<R>& frames, Box* box = nullptr)
     {
-        computeRun<R, true>(n, x, g, lp, out, frames, offsets, box);
+        computeRun<R, true>(n, x, g, lp, out, &frames, box);
     }
     template <int R, bool affine, class X>
     static EMP_ALWAYS_INLINE void computeRun(int n, X&& x, const Grid<D>& g, const HalfWidth& lp, Stencil* out,
-                                             AffineFrame* frames, AffineOffset* offsets = nullptr, Box* box = nullptr)
+                                             AffineRun<R>* frames, Box* box = nullptr)
     {
         // The weights and their derivatives, value m of lane i at wd[m][i] (m = (d, k) of w, then
         // of dw: the order of a Stencil's w and dw).
@@ -164,11 +173,11 @@ template <int D, class K> struct Stencil {
                                      fb[d][i], fr[d][i]);
         });
         if constexpr (affine)
-            for (int i = 0; i < n; ++i)
-                for (int d = 0; d < D; ++d) {
-                    frames[i].b[d] = offsets[i].b[d] = fb[d][i];
-                    frames[i].r[d] = fr[d][i];
-                }
+            for (int d = 0; d < D; ++d) {
+                double* b = frames->b[d];
+                for (int i = 0; i < n; ++i) b[i] = fb[d][i];
+                for (int i = 0; i < n; ++i) frames->r[d][i] = fr[d][i];
+            }
         for (int i = 0; i < n; ++i) {
             Stencil& st = out[i];
             int base[D];
@@ -792,6 +801,88 @@ template <int D, class K> struct Stencil {
         __builtin_memcpy(b.data(), &rb, sizeof(V2));
     }
 
+    /// 2D, S = 3: APIC's G2P sums (affineSums) over a regular support by columns, as columnSums2:
+    /// sum = sum N_I v_I and B = sum N_I v_I (x_I - x_p)^T for the nodal 2-vectors v, with the
+    /// offsets in cells b0, b1 of the first support node (cellOffsets: node (i, j) at (b0 + i, b1 + j)).
+    /// With p_ij = N_ij v_ij, column i's sums over the rows are c_i = (p_i0 + p_i1) + p_i2 and
+    /// t_i = (p_i1 + p_i2) + p_i2 (= sum_j j p_ij); then sum = (c_0 + c_1) + c_2, B's column 0 =
+    /// b0 sum + (c_1 + (c_2 + c_2)) and column 1 = b1 sum + ((t_0 + t_1) + t_2): the offsets
+    /// applied to the sums, not to each node. Not affineSums' order (round-off), the same bits in
+    /// every lane width. (APIC's G2P loop: about 40 instructions a particle-step fewer than
+    /// affineSums.)
+    template <class F>
+    EMP_ALWAYS_INLINE void affineColumnSums2(const Grid<D>& g, double b0, double b1, const F* v, Vec<D>& sum, Mat<D>& B) const
+    {
+        static_assert(D == 2 && S == 3, "2D, three nodes a row");
+        typedef double V2 __attribute__((vector_size(2 * sizeof(double))));
+        typedef double V4 __attribute__((vector_size(4 * sizeof(double))));
+        const V4 x01{w[0][0], w[0][0], w[0][1], w[0][1]};
+        const V2 x2{w[0][2], w[0][2]};
+        V4 p01[S];
+        V2 p2[S];
+        for (int j = 0; j < S; ++j) {
+            const double* vr = v[rowStart(g, j)].data();
+            const double y = w[1][j];
+            V4 v01;
+            V2 v2;
+            __builtin_memcpy(&v01, vr, sizeof(V4));
+            __builtin_memcpy(&v2, vr + 4, sizeof(V2));
+            p01[j] = (x01 * V4{y, y, y, y}) * v01;
+            p2[j] = (x2 * V2{y, y}) * v2;
+        }
+        const V4 c01 = (p01[0] + p01[1]) + p01[2], t01 = (p01[1] + p01[2]) + p01[2];
+        const V2 c2 = (p2[0] + p2[1]) + p2[2], t2 = (p2[1] + p2[2]) + p2[2];
+        const V2 c0{c01[0], c01[1]}, c1{c01[2], c01[3]};
+        const V2 rs = (c0 + c1) + c2;
+        const V2 r0 = V2{b0, b0} * rs + (c1 + (c2 + c2));
+        const V2 r1 = V2{b1, b1} * rs + ((V2{t01[0], t01[1]} + V2{t01[2], t01[3]}) + t2);
+        __builtin_memcpy(sum.data(), &rs, sizeof(V2));
+        __builtin_memcpy(B.col(0).data(), &r0, sizeof(V2));
+        __builtin_memcpy(B.col(1).data(), &r1, sizeof(V2));
+    }
+
+    /// 3D, S = 3: APIC's G2P sums (affineSums) over a regular support, the offsets applied to the
+    /// sums as in affineColumnSums2: with p_ijk = N_ijk v_ijk (4-lane vectors, Lane3), each row's
+    /// r = (p_0 + p_1) + p_2 and q = (p_1 + p_2) + p_2 (= sum_i i p_i); each plane's P = (r_0 +
+    /// r_1) + r_2, T = (r_1 + r_2) + r_2 and Q = (q_0 + q_1) + q_2; then sum = (P_0 + P_1) + P_2,
+    /// B's column 0 = b0 sum + ((Q_0 + Q_1) + Q_2), column 1 = b1 sum + ((T_0 + T_1) + T_2) and
+    /// column 2 = b2 sum + ((P_1 + P_2) + P_2), for the offsets in cells b0, b1, b2 of the first
+    /// support node. N_ijk = w_x,i (w_y,j w_z,k), as forEachRow's. Not affineSums' order
+    /// (round-off), the same bits in every lane width. (It keeps each product only within its row:
+    /// affineSums' column sums had GCC keep all 27 on the stack.)
+    template <class F>
+    EMP_ALWAYS_INLINE void affineRowSums3(const Grid<D>& g, double b0, double b1, double b2, const F* v, Vec<D>& sum,
+                                          Mat<D>& B) const
+    {
+        static_assert(D == 3 && S == 3, "3D, three nodes a row");
+        typedef Lane3::V V4;
+        V4 wx[S], P[S], T[S], Q[S];
+        for (int i = 0; i < S; ++i) wx[i] = V4{w[0][i], w[0][i], w[0][i], w[0][i]};
+        for (int k = 0; k < S; ++k) {
+            V4 r[S], q[S];
+            for (int j = 0; j < S; ++j) {
+                const F* row = v + rowStart(g, j, k);
+                const double f = w[1][j] * w[2][k];
+                const V4 fv{f, f, f, f};
+                V4 p[S];
+                for (int i = 0; i < S; ++i) p[i] = (wx[i] * fv) * Lane3::load(row[i]).v;
+                r[j] = (p[0] + p[1]) + p[2];
+                q[j] = (p[1] + p[2]) + p[2];
+            }
+            P[k] = (r[0] + r[1]) + r[2];
+            T[k] = (r[1] + r[2]) + r[2];
+            Q[k] = (q[0] + q[1]) + q[2];
+        }
+        const V4 s = (P[0] + P[1]) + P[2];
+        const V4 c0 = V4{b0, b0, b0, b0} * s + ((Q[0] + Q[1]) + Q[2]);
+        const V4 c1 = V4{b1, b1, b1, b1} * s + ((T[0] + T[1]) + T[2]);
+        const V4 c2 = V4{b2, b2, b2, b2} * s + ((P[1] + P[2]) + P[2]);
+        sum = Lane3{s}.vec();
+        B.col(0) = Lane3{c0}.vec();
+        B.col(1) = Lane3{c1}.vec();
+        B.col(2) = Lane3{c2}.vec();
+    }
+
     /// 3D: P2G's sums into a field of 4 numbers per node (Grid::massMomentum): node I of the
     /// support gets N_I a[c] added to its number c, with N_I forEachRow's weight (the same
     /// products, in the same order: w[0][i] times the row's weight, then times a[c]). at(I)
@@ -901,19 +992,19 @@ template <int D, class K> struct Stencil {
             }
         };
         // (Lane3: the 3-vectors in the first three lanes; shifted up by one, with m or 0 in
-        // lane 0.)
+        // lane 0. The row's part is summed in the shifted lanes: 0 + o 0 in lane 0 is the 0 a
+        // shift of its sum would put there, and one shift per point instead of one per row.)
         const V4 zero{}, mv{m, m, m, m};
-        const Lane3 a3 = Lane3::of(a), m0 = m * Lane3::of(C.col(0)), m1 = m * Lane3::of(C.col(1)),
-                    m2 = m * Lane3::of(C.col(2));
+        const Lane3 m0 = m * Lane3::of(C.col(0));
+        const auto shifted = [&](const V4& x) EMP_LAMBDA_INLINE { return __builtin_shufflevector(x, zero, 4, 0, 1, 2); };
+        const V4 a3 = shifted(Lane3::of(a).v), m1 = shifted((m * Lane3::of(C.col(1))).v),
+                 m2 = shifted((m * Lane3::of(C.col(2))).v);
         for (int i = 0; i < S; ++i) X[i] = __builtin_shufflevector((o[0][i] * m0).v, mv, 4, 0, 1, 2);
 #pragma GCC unroll 4
         for (int k = 0; k < S; ++k) {
-            const Lane3 q3 = a3 + o[2][k] * m2;
+            const V4 q3 = a3 + o[2][k] * m2;
 #pragma GCC unroll 4
-            for (int j = 0; j < S; ++j) {
-                const Lane3 r3 = q3 + o[1][j] * m1;
-                add(at(rowStart(g, j, k)), w[1][j] * w[2][k], __builtin_shufflevector(r3.v, zero, 4, 0, 1, 2));
-            }
+            for (int j = 0; j < S; ++j) add(at(rowStart(g, j, k)), w[1][j] * w[2][k], q3 + o[1][j] * m1);
         }
     }
 

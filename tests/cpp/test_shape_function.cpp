@@ -479,11 +479,13 @@ template <int D> void checkComputeRun()
                 const int len = 1 + static_cast<int>((begin * 13) % R);
                 const int m = std::min<int>(len, static_cast<int>(x.size() - begin));
                 std::vector<St> run(m), one(m), withFrames(m);
-                std::vector<typename St::AffineFrame> frames(m);
-                std::vector<typename St::AffineOffset> offsets(m);
+                // (the frames' offsets written where a run points them: Solver::offset_)
+                std::vector<double> offsets(D * R), offsetsBoxed(D * R);
+                typename St::template AffineRun<R> frames, framesBoxed;
+                for (int d = 0; d < D; ++d) frames.b[d] = &offsets[d * R], framesBoxed.b[d] = &offsetsBoxed[d * R];
                 const auto xOf = [&](int i) -> const Vec<D>& { return x[begin + i]; };
                 St::template computeRun<R>(m, xOf, g, half, run.data());
-                St::template computeRun<R>(m, xOf, g, half, withFrames.data(), frames.data(), offsets.data());
+                St::template computeRun<R>(m, xOf, g, half, withFrames.data(), frames);
                 // With a box of marked nodes (P2G near a crack): the same stencils, and each
                 // point flagged exactly where overlaps() finds its support touching the box, and
                 // `any` set exactly when one is.
@@ -491,10 +493,8 @@ template <int D> void checkComputeRun()
                 for (int d = 0; d < D; ++d) lo[d] = 5 + d + static_cast<int>(begin % 2), hi[d] = lo[d] + static_cast<int>(begin % 4);
                 typename St::Box box{lo, hi, near, -1}, boxFramed{lo, hi, nearFramed, -1};
                 std::vector<St> boxed(m), boxedFramed(m);
-                std::vector<typename St::AffineFrame> framesBoxed(m);
-                std::vector<typename St::AffineOffset> offsetsBoxed(m);
                 St::template computeRun<R>(m, xOf, g, half, boxed.data(), &box);
-                St::template computeRun<R>(m, xOf, g, half, boxedFramed.data(), framesBoxed.data(), offsetsBoxed.data(), &boxFramed);
+                St::template computeRun<R>(m, xOf, g, half, boxedFramed.data(), framesBoxed, &boxFramed);
                 bool anyOverlaps = false;
                 for (int i = 0; i < m; ++i) anyOverlaps = anyOverlaps || St::overlaps(x[begin + i], g, lo, hi);
                 ASSERT_EQ(box.any != 0, anyOverlaps) << emp::name(w);
@@ -505,7 +505,8 @@ template <int D> void checkComputeRun()
                     ASSERT_EQ(std::memcmp(&withFrames[i], &run[i], sizeof run[i]), 0);
                     ASSERT_EQ(std::memcmp(&boxed[i], &run[i], sizeof run[i]), 0);
                     ASSERT_EQ(std::memcmp(&boxedFramed[i], &run[i], sizeof run[i]), 0);
-                    ASSERT_EQ(std::memcmp(&framesBoxed[i], &frames[i], sizeof frames[i]), 0);
+                    const typename St::AffineFrame fr = frames.frame(i), frBoxed = framesBoxed.frame(i);
+                    ASSERT_EQ(std::memcmp(&frBoxed, &fr, sizeof fr), 0);
                     const bool overlaps = St::overlaps(x[begin + i], g, lo, hi);
                     if (anyOverlaps) {  // (the flags are written only then)
                         ASSERT_EQ(near[i] != 0, overlaps) << emp::name(w) << ", x = " << x[begin + i].transpose();
@@ -515,9 +516,9 @@ template <int D> void checkComputeRun()
                     // APIC's frame: from the lanes, per point, and from the plain offsets and
                     // moment diagonal (cellOffsets, momentDiagonal), bitwise.
                     const typename St::AffineFrame f = one[i].affineFrame(x[begin + i], g);
-                    ASSERT_EQ(std::memcmp(&frames[i], &f, sizeof f), 0) << emp::name(w);
+                    ASSERT_EQ(std::memcmp(&fr, &f, sizeof f), 0) << emp::name(w);
                     // (the offsets kept for G2P: the frame's)
-                    ASSERT_EQ(std::memcmp(offsets[i].b, f.b, sizeof f.b), 0) << emp::name(w);
+                    for (int d = 0; d < D; ++d) ASSERT_EQ(std::memcmp(&offsets[d * R + i], &f.b[d], sizeof f.b[d]), 0) << emp::name(w);
                     double uo[D][St::S];
                     one[i].cellOffsets(x[begin + i], g, uo);
                     const Vec<D> du = one[i].momentDiagonal(uo);
@@ -705,6 +706,47 @@ template <int D, class K> void checkRowForms()
                 const Vec<D> r3 = rows.vec(), e3 = each.vec();
                 ASSERT_EQ(std::memcmp(r3.data(), a1.data(), sizeof a1), 0) << emp::name(w);
                 ASSERT_EQ(std::memcmp(e3.data(), a1.data(), sizeof a1), 0) << emp::name(w);
+                if constexpr (S == 3) {
+                    // APIC's G2P sums by rows (Stencil::affineRowSums3): bitwise the plain order
+                    // (p_ijk = N_ijk v_ijk; each row's r and q, each plane's P, T and Q; the folds
+                    // with the offsets) in every lane width, and affineSums' to round-off of the
+                    // terms' sizes.
+                    Vec<D> as;
+                    Mat<D> aB;
+                    emp::withLaneIsa([&]() EMP_LAMBDA_INLINE {
+                        st.affineRowSums3(g, o[0][0], o[1][0], o[2][0], g.velocity.data(), as, aB);
+                    });
+                    Vec<D> ps, sizeOf = Vec<D>::Zero();
+                    Mat<D> pB;
+                    for (int d = 0; d < D; ++d) {
+                        double P[S], T[S], Q[S];
+                        for (int k = 0; k < S; ++k) {
+                            double r[S], q[S];
+                            for (int j = 0; j < S; ++j) {
+                                double p[S];
+                                for (int i = 0; i < S; ++i) {
+                                    p[i] = (st.w[0][i] * (st.w[1][j] * st.w[2][k])) * g.velocity[st.rowStart(g, j, k) + i][d];
+                                    sizeOf[d] += std::abs(p[i]) * (1 + std::abs(o[0][i]) + std::abs(o[1][j]) + std::abs(o[2][k]));
+                                }
+                                r[j] = (p[0] + p[1]) + p[2];
+                                q[j] = (p[1] + p[2]) + p[2];
+                            }
+                            P[k] = (r[0] + r[1]) + r[2];
+                            T[k] = (r[1] + r[2]) + r[2];
+                            Q[k] = (q[0] + q[1]) + q[2];
+                        }
+                        ps[d] = (P[0] + P[1]) + P[2];
+                        pB(d, 0) = o[0][0] * ps[d] + ((Q[0] + Q[1]) + Q[2]);
+                        pB(d, 1) = o[1][0] * ps[d] + ((T[0] + T[1]) + T[2]);
+                        pB(d, 2) = o[2][0] * ps[d] + ((P[1] + P[2]) + P[2]);
+                    }
+                    ASSERT_EQ(std::memcmp(as.data(), ps.data(), sizeof as), 0) << emp::name(w);
+                    ASSERT_EQ(std::memcmp(aB.data(), pB.data(), sizeof aB), 0) << emp::name(w);
+                    for (int d = 0; d < D; ++d) {
+                        ASSERT_NEAR(as[d], s1[d], 4e-16 * sizeOf[d]) << emp::name(w);
+                        for (int e = 0; e < D; ++e) ASSERT_NEAR(aB(d, e), B1(d, e), 4e-15 * sizeOf[d]) << emp::name(w);
+                    }
+                }
             }
             if constexpr (D == 2 && S == 3) {
                 // G2P's sums by columns (Stencil::columnSums2): bitwise the plain column order
@@ -731,6 +773,36 @@ template <int D, class K> void checkRowForms()
                         ASSERT_EQ(std::memcmp(&sum, &columns, sizeof sum), 0) << emp::name(w) << ", component " << d;
                         ASSERT_NEAR(sum, nodeSum, 2e-15 * sizeOf) << emp::name(w);
                     }
+                // APIC's G2P sums by columns (Stencil::affineColumnSums2): bitwise the plain order
+                // (p_ij = N_ij v_ij; c_i and t_i over the rows; then the folds with the offsets) in
+                // every lane width, and affineSums' to round-off of the terms' sizes.
+                Vec<D> as, ps;
+                Mat<D> aB, pB;
+                emp::withLaneIsa([&]() EMP_LAMBDA_INLINE { st.affineColumnSums2(g, o[0][0], o[1][0], field0.data(), as, aB); });
+                Vec<D> sizeOf = Vec<D>::Zero();
+                for (int d = 0; d < D; ++d) {
+                    double c[S], t[S], p[S][S];
+                    for (int i = 0; i < S; ++i) {
+                        for (int j = 0; j < S; ++j) {
+                            p[i][j] = (st.w[0][i] * st.w[1][j]) * field0[st.rowStart(g, j) + i][d];
+                            sizeOf[d] += std::abs(p[i][j]) * (1 + std::abs(o[0][i]) + std::abs(o[1][j]));
+                        }
+                        c[i] = (p[i][0] + p[i][1]) + p[i][2];
+                        t[i] = (p[i][1] + p[i][2]) + p[i][2];
+                    }
+                    ps[d] = (c[0] + c[1]) + c[2];
+                    pB(d, 0) = o[0][0] * ps[d] + (c[1] + (c[2] + c[2]));
+                    pB(d, 1) = o[1][0] * ps[d] + ((t[0] + t[1]) + t[2]);
+                }
+                ASSERT_EQ(std::memcmp(as.data(), ps.data(), sizeof as), 0) << emp::name(w);
+                ASSERT_EQ(std::memcmp(aB.data(), pB.data(), sizeof aB), 0) << emp::name(w);
+                Vec<D> es;
+                Mat<D> eB;
+                st.affineSums(g, o, [&](int I) { return field0[I]; }, es, eB);
+                for (int d = 0; d < D; ++d) {
+                    ASSERT_NEAR(as[d], es[d], 4e-16 * sizeOf[d]) << emp::name(w);
+                    for (int e = 0; e < D; ++e) ASSERT_NEAR(aB(d, e), eB(d, e), 4e-15 * sizeOf[d]) << emp::name(w);
+                }
             }
             ++compared;
         }
