@@ -248,11 +248,11 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
                 for (int d = 0; d < D; ++d)
                     for (int i = 0; i < S; ++i) u[d][i] = f.b[d] + i;
                 Mat<D>& Cu = P.affineVelocity[p];
-                for (int d = 0; d < D; ++d)
-                    Cu.col(d) = f.r[d] > 0 ? Vec<D>(Cu.col(d) * f.r[d]) : Vec<D>::Zero();
+                typename Lane3::V c[3];  // (3D: Cu's columns, for scatterRowsAffineOf)
+                St::scaleAffine(Cu, f.r, c);
                 if (st.regular()) {
                     if constexpr (W > 0) {
-                        st.scatterRowsAffineOf(g, u, mv, mp, Cu, sums);
+                        st.scatterRowsAffineOf(g, u, mv, mp, c, sums);
                     } else {
                         st.forEachRowAffine(g, u, mv, mp, Cu, [&](int I0, const double* N, const double* Nt) EMP_LAMBDA_INLINE {
                             double* m = &A.mass[I0];

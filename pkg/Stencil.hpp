@@ -740,6 +740,23 @@ template <int D, class K> struct Stencil {
         return I;
     }
 
+    /// 3D: a support's row starts and its y and z weights as plain values, for the scatters that
+    /// store through __builtin_memcpy (which may alias anything, so that GCC reloaded the grid's
+    /// strides, the first node and the weights from memory after every row's stores). The same
+    /// numbers as rowStart and w.
+    struct Rows {
+        int first, s1, s2;
+        double y[S], z[S];
+        EMP_ALWAYS_INLINE int start(int j, int k) const { return first + j * s1 + k * s2; }
+    };
+    EMP_ALWAYS_INLINE Rows rowsOf(const Grid<D>& g) const
+    {
+        static_assert(D == 3, "3D rows");
+        Rows r{first, g.stride[1], g.stride[2], {}, {}};
+        for (int i = 0; i < S; ++i) r.y[i] = w[1][i], r.z[i] = w[2][i];
+        return r;
+    }
+
     /// forEach by rows (its weights N): row(first node, N).
     template <class Row> EMP_ALWAYS_INLINE void forEachRow(const Grid<D>& g, Row&& row) const
     {
@@ -896,10 +913,11 @@ template <int D, class K> struct Stencil {
         const V4 av = __builtin_shufflevector(lo, hi, 0, 1, 2, 3);
         V4 wx[S];
         for (int i = 0; i < S; ++i) wx[i] = V4{w[0][i], w[0][i], w[0][i], w[0][i]};
+        const Rows rows = rowsOf(g);  // (locals: the stores below may alias the stencil's members)
         for (int k = 0; k < S; ++k)
             for (int j = 0; j < S; ++j) {
-                double* r = at(rowStart(g, j, k));
-                const double f = w[1][j] * w[2][k];
+                double* r = at(rows.start(j, k));
+                const double f = rows.y[j] * rows.z[k];
                 for (int i = 0; i < S; ++i) {
                     V4 x;
                     __builtin_memcpy(&x, r + 4 * i, sizeof(V4));
@@ -968,19 +986,56 @@ template <int D, class K> struct Stencil {
         }
     }
 
+    /// APIC's P2G: C_u = B_p diag(r) in place (r[d] = 1 / (h du_d) from the point's frame; a
+    /// direction with r[d] <= 0 gets 0: Solver::particleToGrid), in 4-lane vectors: the same
+    /// products, and +0 where the scalar form `r > 0 ? C.col(d) * r : 0` puts it. 3D: c[d] gets
+    /// column d in lanes 0-2 (lane 3 holds another number), for scatterRowsAffineOf. (The scalar
+    /// form, a branch per column and C_u rebuilt into vectors after its stores, was about 70
+    /// instructions a point of 3D APIC's P2G.)
+    static EMP_ALWAYS_INLINE void scaleAffine(Mat<D>& C, const double* r, typename Lane3::V* c = nullptr)
+    {
+        typedef typename Lane3::V V4;
+        typedef typename Lane3::Bits B4;
+        const V4 zero{};
+        const auto scaled = [&](const V4& x, const V4& rv) EMP_LAMBDA_INLINE {
+            return reinterpret_cast<V4>(reinterpret_cast<B4>(x * rv) & (rv > zero));
+        };
+        double* e = C.data();  // (column-major)
+        if constexpr (D == 2) {
+            V4 x;
+            __builtin_memcpy(&x, e, sizeof x);
+            x = scaled(x, V4{r[0], r[0], r[1], r[1]});
+            __builtin_memcpy(e, &x, sizeof x);
+        } else {
+            V4 c0, c1, t;  // columns 0 and 1 from their first entry, column 2 in lanes 1-3 of t
+            __builtin_memcpy(&c0, e, sizeof c0);
+            __builtin_memcpy(&c1, e + 3, sizeof c1);
+            __builtin_memcpy(&t, e + 5, sizeof t);
+            c0 = scaled(c0, V4{r[0], r[0], r[0], r[0]});
+            c1 = scaled(c1, V4{r[1], r[1], r[1], r[1]});
+            t = scaled(t, V4{r[2], r[2], r[2], r[2]});
+            // Stored in this order, each store's last lane overwritten by the next; entry 5
+            // (column 1's last) goes in t's lane 0.
+            const V4 t5 = __builtin_shufflevector(t, c1, 6, 1, 2, 3);
+            __builtin_memcpy(e, &c0, sizeof c0);
+            __builtin_memcpy(e + 3, &c1, sizeof c1);
+            __builtin_memcpy(e + 5, &t5, sizeof t5);
+            if (c) c[0] = c0, c[1] = c1, c[2] = __builtin_shufflevector(t, t, 1, 2, 3, 3);
+        }
+    }
+
     /// 3D: APIC's P2G sums by rows, with M = m C, into a field of 4 numbers per node
     /// (Grid::massMomentum, as scatterRowsOf): node I gets N_I m added to its number 0 and
     /// N_I (a + M (x_I - x_p)) to its numbers 1 .. D, the same operations as forEachAffine's
     /// (N_I times the sum of the row's part and the column's part of a + M (x_I - x_p)). A node's
     /// numbers are one 4-lane vector: N_I times (0, the row's part) + (m, the column's part).
-    /// (M is formed here, column by column: as an Eigen temporary it went through the stack,
-    /// and reading it back waited on the stores.)
+    /// C's columns come as scaleAffine's vectors c (lanes 0-2).
     template <class At>
     EMP_ALWAYS_INLINE void scatterRowsAffineOf(const Grid<D>& g, const double (*o)[S], const Vec<D>& a, double m,
-                                               const Mat<D>& C, At&& at) const
+                                               const typename Lane3::V* c, At&& at) const
     {
         static_assert(D == 3 && Grid<D>::sumsWidth == 4, "3D: one 4-lane vector per node");
-        typedef double V4 __attribute__((vector_size(4 * sizeof(double))));
+        typedef typename Lane3::V V4;
         V4 wx[S], X[S];  // w[0][i] in each lane; (m, the column's part M_0 o_0i)
         for (int i = 0; i < S; ++i) wx[i] = V4{w[0][i], w[0][i], w[0][i], w[0][i]};
         const auto add = [&](double* r, double f, const V4& R) EMP_LAMBDA_INLINE {
@@ -991,20 +1046,21 @@ template <int D, class K> struct Stencil {
                 __builtin_memcpy(r + 4 * i, &x, sizeof(V4));
             }
         };
-        // (Lane3: the 3-vectors in the first three lanes; shifted up by one, with m or 0 in
-        // lane 0. The row's part is summed in the shifted lanes: 0 + o 0 in lane 0 is the 0 a
-        // shift of its sum would put there, and one shift per point instead of one per row.)
+        // (The 3-vectors shifted up by one lane, with m or 0 in lane 0. The row's part is summed
+        // in the shifted lanes: 0 + o 0 in lane 0 is the 0 a shift of its sum would put there,
+        // and one shift per point instead of one per row.)
         const V4 zero{}, mv{m, m, m, m};
-        const Lane3 m0 = m * Lane3::of(C.col(0));
         const auto shifted = [&](const V4& x) EMP_LAMBDA_INLINE { return __builtin_shufflevector(x, zero, 4, 0, 1, 2); };
-        const V4 a3 = shifted(Lane3::of(a).v), m1 = shifted((m * Lane3::of(C.col(1))).v),
-                 m2 = shifted((m * Lane3::of(C.col(2))).v);
-        for (int i = 0; i < S; ++i) X[i] = __builtin_shufflevector((o[0][i] * m0).v, mv, 4, 0, 1, 2);
+        const V4 m0 = shifted(mv * c[0]), m1 = shifted(mv * c[1]), m2 = shifted(mv * c[2]), a3 = shifted(Lane3::of(a).v);
+        for (int i = 0; i < S; ++i) X[i] = __builtin_shufflevector(o[0][i] * m0, mv, 4, 1, 2, 3);
+        const Rows rows = rowsOf(g);  // (as in scatterRowsOf; the offsets too)
+        double o1[S], o2[S];
+        for (int i = 0; i < S; ++i) o1[i] = o[1][i], o2[i] = o[2][i];
 #pragma GCC unroll 4
         for (int k = 0; k < S; ++k) {
-            const V4 q3 = a3 + o[2][k] * m2;
+            const V4 q3 = a3 + o2[k] * m2;
 #pragma GCC unroll 4
-            for (int j = 0; j < S; ++j) add(at(rowStart(g, j, k)), w[1][j] * w[2][k], q3 + o[1][j] * m1);
+            for (int j = 0; j < S; ++j) add(at(rows.start(j, k)), rows.y[j] * rows.z[k], q3 + o1[j] * m1);
         }
     }
 

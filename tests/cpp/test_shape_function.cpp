@@ -589,8 +589,24 @@ template <int D, class K> void checkRowForms()
         for (int trial = 0; trial < 200; ++trial) {
             Vec<D> x, fb, a0;
             for (int d = 0; d < D; ++d) x[d] = g.origin[d] + u(rng) * g.h, fb[d] = r(rng), a0[d] = r(rng);
-            const Mat<D> M = Mat<D>::Random() * std::pow(10.0, 6 * r(rng));
+            Mat<D> M = Mat<D>::Random() * std::pow(10.0, 6 * r(rng));
             const double mp = 1 + r(rng);
+            // APIC's C_u = B diag(s) (Stencil::scaleAffine) against its scalar form, with
+            // directions that get 0 (s <= 0, or NaN; their column may hold anything).
+            double sc[D];
+            for (int d = 0; d < D; ++d) sc[d] = 0.2 + u(rng);
+            if (trial % 5 == 1) sc[trial % D] = 0;
+            if (trial % 7 == 2) sc[(trial + 1) % D] = -1;
+            if (trial % 11 == 3) {
+                sc[D - 1] = std::numeric_limits<double>::quiet_NaN();
+                M(0, D - 1) = std::numeric_limits<double>::infinity();
+            }
+            Mat<D> Cu = M, Cref;
+            for (int d = 0; d < D; ++d) Cref.col(d) = sc[d] > 0 ? Vec<D>(M.col(d) * sc[d]) : Vec<D>::Zero();
+            typename emp::Lane3::V c[3];
+            emp::withLaneIsa([&]() EMP_LAMBDA_INLINE { St::scaleAffine(Cu, sc, c); });
+            ASSERT_EQ(std::memcmp(Cu.data(), Cref.data(), sizeof Cu), 0) << emp::name(w) << "\n" << Cu << "\n" << Cref;
+            if (trial % 11 == 3) M(0, D - 1) = 0.5;  // (the forms below on finite numbers)
             St st;
             st.compute(x, g, emp::HalfWidth(0.25));
             ASSERT_TRUE(st.regular());
@@ -643,7 +659,11 @@ template <int D, class K> void checkRowForms()
                 const double a[D + 1] = {mp, a0[0], a0[1], a0[2]};
                 emp::withLaneIsa([&]() EMP_LAMBDA_INLINE {
                     st.scatterRowsOf(g, a, [&](int I) { return &flip[static_cast<std::size_t>(I) * W]; });
-                    st.scatterRowsAffineOf(g, o, a0, mp, M, [&](int I) { return &apic[static_cast<std::size_t>(I) * W]; });
+                    typename emp::Lane3::V cols[3];
+                    Mat<D> Mu = M;
+                    const double one[D] = {1.0, 1.0, 1.0};  // (C_u = M)
+                    St::scaleAffine(Mu, one, cols);
+                    st.scatterRowsAffineOf(g, o, a0, mp, cols, [&](int I) { return &apic[static_cast<std::size_t>(I) * W]; });
                 });
                 for (int I = 0; I < nodes; ++I) {
                     for (const auto* sums : {&flip, &apic}) ASSERT_EQ(std::memcmp(&(*sums)[I * W], &mass[I], sizeof(double)), 0) << emp::name(w);
