@@ -776,6 +776,24 @@ template <int D, class K> struct Stencil {
         }
     }
 
+    typedef double V2 __attribute__((vector_size(2 * sizeof(double))));
+    typedef double V4 __attribute__((vector_size(4 * sizeof(double))));
+    /// 2D, S = 3: row j's products N_I f_I (N_I = w_x,i w_y,j; forEachRow's weights) of a nodal
+    /// 2-vector field whose row starts at r (six numbers): nodes 0 and 1 in p01, node 2 in p2
+    /// (columnSums2, affineColumnSums2).
+    EMP_ALWAYS_INLINE void rowProducts2(int j, const double* r, V4& p01, V2& p2) const
+    {
+        const V4 x01{w[0][0], w[0][0], w[0][1], w[0][1]};
+        const V2 x2{w[0][2], w[0][2]};
+        const double y = w[1][j];
+        V4 f01;
+        V2 f2;
+        __builtin_memcpy(&f01, r, sizeof(V4));
+        __builtin_memcpy(&f2, r + 4, sizeof(V2));
+        p01 = (x01 * V4{y, y, y, y}) * f01;  // (N of nodes 0 and 1, each twice)
+        p2 = (x2 * V2{y, y}) * f2;
+    }
+
     /// 2D, S = 3: G2P's sums a = sum N_I f_I and b = sum N_I u_I over a regular support, for two
     /// nodal 2-vector fields f and u (arrays of D numbers per node), with forEachRow's weights
     /// N_I = w_x,i w_y,j. Summed by columns: node i of every row goes to column sum i (nodes 0 and 1
@@ -787,29 +805,18 @@ template <int D, class K> struct Stencil {
     template <class F> EMP_ALWAYS_INLINE void columnSums2(const Grid<D>& g, const F* f, const F* u, Vec<D>& a, Vec<D>& b) const
     {
         static_assert(D == 2 && S == 3, "2D, three nodes a row");
-        typedef double V2 __attribute__((vector_size(2 * sizeof(double))));
-        typedef double V4 __attribute__((vector_size(4 * sizeof(double))));
-        const V4 x01{w[0][0], w[0][0], w[0][1], w[0][1]};
-        const V2 x2{w[0][2], w[0][2]};
         V4 a01, b01;
         V2 a2, b2;
         for (int j = 0; j < S; ++j) {
             const int I0 = rowStart(g, j);
-            const double* fr = f[I0].data();
-            const double* ur = u[I0].data();
-            const double y = w[1][j];
-            const V4 n01 = x01 * V4{y, y, y, y};  // (N of nodes 0 and 1, each twice)
-            const V2 n2 = x2 * V2{y, y};
             V4 f01, u01;
             V2 f2, u2;
-            __builtin_memcpy(&f01, fr, sizeof(V4));
-            __builtin_memcpy(&u01, ur, sizeof(V4));
-            __builtin_memcpy(&f2, fr + 4, sizeof(V2));
-            __builtin_memcpy(&u2, ur + 4, sizeof(V2));
+            rowProducts2(j, f[I0].data(), f01, f2);
+            rowProducts2(j, u[I0].data(), u01, u2);
             if (j == 0) {  // (the first row's products start the sums)
-                a01 = n01 * f01, a2 = n2 * f2, b01 = n01 * u01, b2 = n2 * u2;
+                a01 = f01, a2 = f2, b01 = u01, b2 = u2;
             } else {
-                a01 += n01 * f01, a2 += n2 * f2, b01 += n01 * u01, b2 += n2 * u2;
+                a01 += f01, a2 += f2, b01 += u01, b2 += u2;
             }
         }
         const V2 ra = (V2{a01[0], a01[1]} + V2{a01[2], a01[3]}) + a2;
@@ -831,22 +838,9 @@ template <int D, class K> struct Stencil {
     EMP_ALWAYS_INLINE void affineColumnSums2(const Grid<D>& g, double b0, double b1, const F* v, Vec<D>& sum, Mat<D>& B) const
     {
         static_assert(D == 2 && S == 3, "2D, three nodes a row");
-        typedef double V2 __attribute__((vector_size(2 * sizeof(double))));
-        typedef double V4 __attribute__((vector_size(4 * sizeof(double))));
-        const V4 x01{w[0][0], w[0][0], w[0][1], w[0][1]};
-        const V2 x2{w[0][2], w[0][2]};
         V4 p01[S];
         V2 p2[S];
-        for (int j = 0; j < S; ++j) {
-            const double* vr = v[rowStart(g, j)].data();
-            const double y = w[1][j];
-            V4 v01;
-            V2 v2;
-            __builtin_memcpy(&v01, vr, sizeof(V4));
-            __builtin_memcpy(&v2, vr + 4, sizeof(V2));
-            p01[j] = (x01 * V4{y, y, y, y}) * v01;
-            p2[j] = (x2 * V2{y, y}) * v2;
-        }
+        for (int j = 0; j < S; ++j) rowProducts2(j, v[rowStart(g, j)].data(), p01[j], p2[j]);
         const V4 c01 = (p01[0] + p01[1]) + p01[2], t01 = (p01[1] + p01[2]) + p01[2];
         const V2 c2 = (p2[0] + p2[1]) + p2[2], t2 = (p2[1] + p2[2]) + p2[2];
         const V2 c0{c01[0], c01[1]}, c1{c01[2], c01[3]};
