@@ -703,6 +703,7 @@ EMP_NOINLINE void Solver<D, K>::corotationalOfRun3(const int* ids, const St* st,
         auto& P = points_;
         constexpr int R = stressRun;
         alignas(64) double f[9][R], x[9][R], y[9][R], u[9][R], r[9][R], sig[9][R], state[R];
+        alignas(64) lanes9::V4 sums[R][3];  // (the velocity gradient's Lane3 sums, point by point)
         const auto load = [](const double (*a)[R], int i) EMP_LAMBDA_INLINE {
             Plain3 m;
             forEntries([&](auto k) EMP_LAMBDA_INLINE { m.a[k / 3][k % 3] = a[k][i]; });
@@ -716,17 +717,40 @@ EMP_NOINLINE void Solver<D, K>::corotationalOfRun3(const int* ids, const St* st,
             if constexpr (!K::gradientJumpsAtNodes) {
                 // L(row, column) = c_column[row] / h from the Lane3 sums, the operations of
                 // velocityGradient, each lane stored where it goes (not through a 3 x 3 matrix).
+                // (Four points' sums then go into the lanes by transposes, below.)
                 Lane3 c[3];
                 st[i].velocitySums3(grid_, [&](int I) EMP_LAMBDA_INLINE -> const Vec<D>& { return a.velocity[I]; },
                                     c[0], c[1], c[2]);
-                for (int k = 0; k < 9; ++k) r[k][i] = grid_.invh * c[k % 3].v[k / 3];
+                for (int d = 0; d < 3; ++d) sums[i][d] = c[d].v;
             } else {
                 const Mat<3> L = velocityGradient(a, ids[i], st[i]);
                 for (int k = 0; k < 9; ++k) r[k][i] = L(k / 3, k % 3);
             }
-            const Mat<3>& F = a.P.deformationGradient[ids[i]];
-            for (int k = 0; k < 9; ++k) f[k][i] = F(k / 3, k % 3);
         }
+        const int i4 = n - n % 4;
+        if constexpr (!K::gradientJumpsAtNodes) {
+            const lanes9::V4 invh{grid_.invh, grid_.invh, grid_.invh, grid_.invh};
+            for (int i = 0; i < i4; i += 4)
+                for (int col = 0; col < 3; ++col) {
+                    const lanes9::V4 rows[4] = {sums[i][col], sums[i + 1][col], sums[i + 2][col], sums[i + 3][col]};
+                    lanes9::V4 t[4];
+                    lanes9::transpose4(rows, t);
+                    for (int row = 0; row < 3; ++row) {
+                        const lanes9::V4 l = invh * t[row];
+                        __builtin_memcpy(&r[3 * row + col][i], &l, sizeof l);
+                    }
+                }
+            for (int i = i4; i < n; ++i)
+                for (int k = 0; k < 9; ++k) r[k][i] = grid_.invh * sums[i][k % 3][k / 3];
+        }
+        // The points' F into the lanes, four points at a time (matricesToLanes3: a copy).
+        const auto matrix = [&](int i) EMP_LAMBDA_INLINE { return P.deformationGradient[ids[i]].data(); };
+        for (int i = 0; i < i4; i += 4) {
+            const double* const m[4] = {matrix(i), matrix(i + 1), matrix(i + 2), matrix(i + 3)};
+            matricesToLanes3(m, f, i);
+        }
+        for (int i = i4; i < n; ++i)
+            for (int k = 0; k < 9; ++k) f[k][i] = P.deformationGradient[ids[i]](k / 3, k % 3);
         // F <- (I - dt L)^-1 F; the Newton iteration starts from F (state 1: iterating, 0: refused).
         for (int i = 0; i < n; ++i) {
             Plain3 A = load(r, i);
@@ -784,14 +808,15 @@ EMP_NOINLINE void Solver<D, K>::corotationalOfRun3(const int* ids, const St* st,
             for (int k = 0; k < 9; ++k) eps(k / 3, k % 3) = u[k][i] - (k % 4 == 0 ? 1.0 : 0.0);
             return eps;
         };
-        for (int i = 0; i < n; ++i) {
-            const int p = ids[i];
-            for (int k = 0; k < 9; ++k) P.deformationGradient[p](k / 3, k % 3) = f[k][i];
-            if (state[i] != 2.0) {  // a degenerate F: NaN stress, reported by the step's check
-                out[i].setConstant(std::numeric_limits<double>::quiet_NaN());
-                for (int k = 0; k < 9; ++k) sig[k][i] = 0;  // (the lane's Cauchy stress is not used)
-            }
+        for (int i = 0; i < i4; i += 4) {  // (F back, as it came: lanesToMatrices3)
+            double* const m[4] = {matrix(i), matrix(i + 1), matrix(i + 2), matrix(i + 3)};
+            lanesToMatrices3(f, i, m);
         }
+        for (int i = i4; i < n; ++i)
+            for (int k = 0; k < 9; ++k) P.deformationGradient[ids[i]](k / 3, k % 3) = f[k][i];
+        for (int i = 0; i < n; ++i)
+            if (state[i] != 2.0)  // (a degenerate F: its lane's Cauchy stress is not used)
+                for (int k = 0; k < 9; ++k) sig[k][i] = 0;
         const bool shared = withSharedPointwiseLaw(ids, n, [&](auto law) {
             using Law = decltype(law);
             // The lanes' arrays reuse x and y (free after the iteration): strains, then stresses.
@@ -825,9 +850,15 @@ EMP_NOINLINE void Solver<D, K>::corotationalOfRun3(const int* ids, const St* st,
             for (int i = 0; i < n; ++i)
                 if (state[i] == 2.0) lawAtLane(i, ids[i], strainOf(i));
         for (int i = 0; i < n; ++i) store(sig, i, cauchyStress3(load(r, i), load(u, i), load(sig, i)));
+        for (int i = 0; i < i4; i += 4) {
+            double* const m[4] = {out[i].data(), out[i + 1].data(), out[i + 2].data(), out[i + 3].data()};
+            lanesToMatrices3(sig, i, m);
+        }
+        for (int i = i4; i < n; ++i)
+            for (int k = 0; k < 9; ++k) out[i](k / 3, k % 3) = sig[k][i];
         for (int i = 0; i < n; ++i)
-            if (state[i] == 2.0)
-                for (int k = 0; k < 9; ++k) out[i](k / 3, k % 3) = sig[k][i];
+            if (state[i] != 2.0)  // a degenerate F: NaN stress, reported by the step's check
+                out[i].setConstant(std::numeric_limits<double>::quiet_NaN());
     });
 }
 

@@ -156,6 +156,34 @@ TEST(Kinematics, PlainNumberAlgebra3DIsBitwiseTheEigenForm)
     }
 }
 
+/// corotationalOfRun3's copies between four points' matrices (Eigen's column-major storage) and
+/// its lane arrays (entry 3 row + column of point i at a[k][i]) by transposes: the numbers an
+/// entry-by-entry copy gives, at every group of four lanes of a run.
+TEST(Kinematics, LaneTransposesAreEntryCopies3D)
+{
+    constexpr int R = 16;
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    alignas(64) double a[9][R], back[9][R];
+    for (auto& row : a)
+        for (double& e : row) e = u(rng);
+    std::vector<Mat<3>> m(R, Mat<3>::Constant(7.0));
+    for (int i0 = 0; i0 < R; i0 += 4) {
+        double* const dst[4] = {m[i0 + 1].data(), m[i0].data(), m[i0 + 3].data(), m[i0 + 2].data()};  // (any four)
+        emp::lanesToMatrices3(a, i0, dst);
+        const double* const src[4] = {dst[0], dst[1], dst[2], dst[3]};
+        emp::matricesToLanes3(src, back, i0);
+    }
+    const int which[4] = {1, 0, 3, 2};
+    for (int i = 0; i < R; ++i) {
+        const int p = i - i % 4 + which[i % 4];
+        for (int k = 0; k < 9; ++k) {
+            ASSERT_EQ(bits(m[p](k / 3, k % 3)), bits(a[k][i])) << "lane " << i << ", entry " << k;
+            ASSERT_EQ(bits(back[k][i]), bits(a[k][i])) << "lane " << i << ", entry " << k;
+        }
+    }
+}
+
 /// After steps of a spinning, vibrating block with the co-rotational update, every point's
 /// co-rotated strain, stress (as the stress pass made it), psi+ and psi- are bitwise those the per-point form gives from its
 /// deformation gradient (polar decomposition, its material's law, Cauchy stress): in 2D whether
