@@ -981,7 +981,7 @@ template <int D, class K> struct Stencil {
     }
 
     /// APIC's P2G: C_u = B_p diag(r) in place (r[d] = 1 / (h du_d) from the point's frame; a
-    /// direction with r[d] <= 0 gets 0: Solver::particleToGrid), in 4-lane vectors: the same
+    /// direction with r[d] <= 0 gets 0: Solver::particleToGrid); 3D in 4-lane vectors: the same
     /// products, and +0 where the scalar form `r > 0 ? C.col(d) * r : 0` puts it. 3D: c[d] gets
     /// column d in lanes 0-2 (lane 3 holds another number), for scatterRowsAffineOf. (The scalar
     /// form, a branch per column and C_u rebuilt into vectors after its stores, was about 70
@@ -996,10 +996,10 @@ template <int D, class K> struct Stencil {
         };
         double* e = C.data();  // (column-major)
         if constexpr (D == 2) {
-            V4 x;
-            __builtin_memcpy(&x, e, sizeof x);
-            x = scaled(x, V4{r[0], r[0], r[1], r[1]});
-            __builtin_memcpy(e, &x, sizeof x);
+            // (Scalar: its 4-lane form cost 2D APIC about 1 % more time, `bench/option_cost.py`,
+            // although 2 instructions fewer; forEachRowAffine reads C_u right after.)
+            (void)scaled;
+            for (int d = 0; d < D; ++d) C.col(d) = r[d] > 0 ? Vec<D>(C.col(d) * r[d]) : Vec<D>::Zero();
         } else {
             V4 c0, c1, t;  // columns 0 and 1 from their first entry, column 2 in lanes 1-3 of t
             __builtin_memcpy(&c0, e, sizeof c0);
