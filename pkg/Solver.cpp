@@ -716,8 +716,8 @@ EMP_NOINLINE void Solver<D, K>::corotationalOfRun3(const int* ids, const St* st,
         for (int i = 0; i < n; ++i) {
             if constexpr (!K::gradientJumpsAtNodes) {
                 // L(row, column) = c_column[row] / h from the Lane3 sums, the operations of
-                // velocityGradient, each lane stored where it goes (not through a 3 x 3 matrix).
-                // (Four points' sums then go into the lanes by transposes, below.)
+                // velocityGradient; four points' sums go into the lanes by one transpose per
+                // column, below.
                 Lane3 c[3];
                 st[i].velocitySums3(grid_, [&](int I) EMP_LAMBDA_INLINE -> const Vec<D>& { return a.velocity[I]; },
                                     c[0], c[1], c[2]);

@@ -988,26 +988,22 @@ template <int D, class K> struct Stencil {
     /// instructions a point of 3D APIC's P2G.)
     static EMP_ALWAYS_INLINE void scaleAffine(Mat<D>& C, const double* r, typename Lane3::V* c = nullptr)
     {
-        typedef typename Lane3::V V4;
-        typedef typename Lane3::Bits B4;
-        const V4 zero{};
-        const auto scaled = [&](const V4& x, const V4& rv) EMP_LAMBDA_INLINE {
-            return reinterpret_cast<V4>(reinterpret_cast<B4>(x * rv) & (rv > zero));
-        };
-        double* e = C.data();  // (column-major)
         if constexpr (D == 2) {
             // (Scalar: its 4-lane form cost 2D APIC about 1 % more time, `bench/option_cost.py`,
             // although 2 instructions fewer; forEachRowAffine reads C_u right after.)
-            (void)scaled;
             for (int d = 0; d < D; ++d) C.col(d) = r[d] > 0 ? Vec<D>(C.col(d) * r[d]) : Vec<D>::Zero();
         } else {
+            typedef typename Lane3::V V4;
+            typedef typename Lane3::Bits B4;
+            double* e = C.data();  // (column-major)
+            const V4 zero{}, r0{r[0], r[0], r[0], r[0]}, r1{r[1], r[1], r[1], r[1]}, r2{r[2], r[2], r[2], r[2]};
             V4 c0, c1, t;  // columns 0 and 1 from their first entry, column 2 in lanes 1-3 of t
             __builtin_memcpy(&c0, e, sizeof c0);
             __builtin_memcpy(&c1, e + 3, sizeof c1);
             __builtin_memcpy(&t, e + 5, sizeof t);
-            c0 = scaled(c0, V4{r[0], r[0], r[0], r[0]});
-            c1 = scaled(c1, V4{r[1], r[1], r[1], r[1]});
-            t = scaled(t, V4{r[2], r[2], r[2], r[2]});
+            c0 = reinterpret_cast<V4>(reinterpret_cast<B4>(c0 * r0) & (r0 > zero));
+            c1 = reinterpret_cast<V4>(reinterpret_cast<B4>(c1 * r1) & (r1 > zero));
+            t = reinterpret_cast<V4>(reinterpret_cast<B4>(t * r2) & (r2 > zero));
             // Stored in this order, each store's last lane overwritten by the next; entry 5
             // (column 1's last) goes in t's lane 0.
             const V4 t5 = __builtin_shufflevector(t, c1, 6, 1, 2, 3);
