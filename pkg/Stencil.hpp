@@ -984,8 +984,8 @@ template <int D, class K> struct Stencil {
     /// direction with r[d] <= 0 gets 0: Solver::particleToGrid); 3D in 4-lane vectors: the same
     /// products, and +0 where the scalar form `r > 0 ? C.col(d) * r : 0` puts it. 3D: c[d] gets
     /// column d in lanes 0-2 (lane 3 holds another number), for scatterRowsAffineOf. (The scalar
-    /// form, a branch per column and C_u rebuilt into vectors after its stores, was about 70
-    /// instructions a point of 3D APIC's P2G.)
+    /// form has a branch per column and rebuilt C_u into vectors after its stores: 3D APIC's P2G
+    /// point loop 348 -> 337 instructions.)
     static EMP_ALWAYS_INLINE void scaleAffine(Mat<D>& C, const double* r, typename Lane3::V* c = nullptr)
     {
         if constexpr (D == 2) {
@@ -1043,14 +1043,12 @@ template <int D, class K> struct Stencil {
         const auto shifted = [&](const V4& x) EMP_LAMBDA_INLINE { return __builtin_shufflevector(x, zero, 4, 0, 1, 2); };
         const V4 m0 = shifted(mv * c[0]), m1 = shifted(mv * c[1]), m2 = shifted(mv * c[2]), a3 = shifted(Lane3::of(a).v);
         for (int i = 0; i < S; ++i) X[i] = __builtin_shufflevector(o[0][i] * m0, mv, 4, 1, 2, 3);
-        const Rows rows = rowsOf(g);  // (as in scatterRowsOf; the offsets too)
-        double o1[S], o2[S];
-        for (int i = 0; i < S; ++i) o1[i] = o[1][i], o2[i] = o[2][i];
+        const Rows rows = rowsOf(g);  // (as in scatterRowsOf)
 #pragma GCC unroll 4
         for (int k = 0; k < S; ++k) {
-            const V4 q3 = a3 + o2[k] * m2;
+            const V4 q3 = a3 + o[2][k] * m2;
 #pragma GCC unroll 4
-            for (int j = 0; j < S; ++j) add(at(rows.start(j, k)), rows.y[j] * rows.z[k], q3 + o1[j] * m1);
+            for (int j = 0; j < S; ++j) add(at(rows.start(j, k)), rows.y[j] * rows.z[k], q3 + o[1][j] * m1);
         }
     }
 
