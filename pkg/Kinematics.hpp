@@ -31,6 +31,12 @@
 //                  (omega dt)^2 / 2 per step). The stress is the Kirchhoff stress tau =
 //                  R sigma(eps) U R^T of the energy psi(U - I), divided by J = det F for the
 //                  Cauchy stress the points report; the internal force is V_0 tau grad N.
+//                  With APIC, G2P updates F instead: F <- (I + dt C_p) F with C_p = B_p D_p^-1
+//                  from the sums it has just taken at x^n (the pairing of MLS-MPM, Hu et al.
+//                  2018). The points then move by x <- x + dt sum_I N_I v_I, whose gradient is
+//                  I + dt C_p exactly for any affine field of v_I (a rigid rotation's chord
+//                  velocities included) and C_p its least-squares fit otherwise; the stress pass
+//                  takes F as it is and sums no velocity gradients (Solver::deformationInG2P).
 #pragma once
 #include <algorithm>
 #include <cctype>

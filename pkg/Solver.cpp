@@ -124,7 +124,7 @@ template <int D, class K> void Solver<D, K>::schedulePoints(int nThreads)
     }
     stencil_.resize(points_.size());
     if (settings_.transfer == Transfer::apic)
-        offset_.resize(D * points_.size());
+        offset_.resize((deformationInG2P() ? 2 : 1) * D * points_.size());
     else if (!offset_.empty())
         std::vector<double>().swap(offset_);
 }
@@ -242,8 +242,11 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
                 // the kinetic energy and then stores the new B_p. (u and 1 / (h du) from the
                 // point's frame: Stencil::affineFrameAlong.)
                 const typename St::AffineFrame f = frame ? *frame : st.affineFrame(P.x[p], g);
-                if (!frame)  // (G2P reads the offsets; computeRun stored those of a run)
+                if (!frame) {  // (G2P reads the offsets, and r with F; inRuns stores those of a run)
                     for (int d = 0; d < D; ++d) A.offset[d][k] = f.b[d];
+                    if (A.scale[0])
+                        for (int d = 0; d < D; ++d) A.scale[d][k] = f.r[d];
+                }
                 double u[D][S];
                 for (int d = 0; d < D; ++d)
                     for (int i = 0; i < S; ++i) u[d][i] = f.b[d] + i;
@@ -294,9 +297,13 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
             int near[stencilRun];
             typename St::Box box{markedLo_, markedHi_, near, 0};
             typename St::Box* const nearBox = begin < nearSlots.second && end > nearSlots.first ? &box : nullptr;
-            if constexpr (decltype(apic)::value)
+            if constexpr (decltype(apic)::value) {
                 St::template computeRun<stencilRun>(end - begin, x, g, half, &stencil_[begin], frames, nearBox);
-            else
+                const std::size_t n = stencil_.size();
+                if (offset_.size() > D * n)  // (G2P's C_p: deformationInG2P)
+                    for (int d = 0; d < D; ++d)
+                        std::memcpy(&offset_[(D + d) * n + begin], frames.r[d], (end - begin) * sizeof(double));
+            } else
                 St::template computeRun<stencilRun>(end - begin, x, g, half, &stencil_[begin], nearBox);
             if (box.any) mapRun(begin, end, near);
             withLaneIsa([&]() EMP_LAMBDA_INLINE {  // (the rows' loops in the lanes' width)
@@ -599,9 +606,14 @@ EMP_ALWAYS_INLINE void Solver<D, K>::corotationalOfRun(const int* ids, const St*
     // through the whole update (deformation gradient, polar decomposition, law, Cauchy stress) as
     // one vectorised loop; otherwise point by point.
     if constexpr (D == 2) {
-        if (withSharedPointwiseLaw(ids, n, [&](auto l) { corotationalOfRun2<decltype(l)>(ids, st, n, dt, J, sigma); })) return;
+        const bool moved = deformationInG2P();
+        if (withSharedPointwiseLaw(ids, n, [&](auto l) {
+                moved ? corotationalOfRun2<decltype(l), true>(ids, st, n, dt, J, sigma)
+                      : corotationalOfRun2<decltype(l), false>(ids, st, n, dt, J, sigma);
+            }))
+            return;
     } else {
-        corotationalOfRun3(ids, st, n, dt, J, sigma);
+        deformationInG2P() ? corotationalOfRun3<true>(ids, st, n, dt, J, sigma) : corotationalOfRun3<false>(ids, st, n, dt, J, sigma);
         return;
     }
     // Point by point: the run's velocity gradients first (one tight loop of stencil sums, as in
@@ -609,18 +621,21 @@ EMP_ALWAYS_INLINE void Solver<D, K>::corotationalOfRun(const int* ids, const St*
     // positions of the velocity that brought them there, so the motion's gradient is
     // (I - dt L)^-1 (Kinematics.hpp): exact for any field the transfer carries, a rigid rotation
     // included.
+    // With APIC, G2P has updated F already (deformationInG2P).
+    const bool moved = deformationInG2P();
     Mat<D> L[stressRun];
-    for (int i = 0; i < n; ++i) L[i] = velocityGradient(ids[i], st[i]);
+    if (!moved)
+        for (int i = 0; i < n; ++i) L[i] = velocityGradient(ids[i], st[i]);
     for (int i = 0; i < n; ++i) {
         Mat<D>& F = points_.deformationGradient[ids[i]];
-        F = (Mat<D>::Identity() - dt * L[i]).inverse() * F;
+        if (!moved) F = (Mat<D>::Identity() - dt * L[i]).inverse() * F;
         J[i] = F.determinant();
         corotationalStress(ids[i], sigma[i]);
     }
 }
 
 template <int D, class K>
-template <class Law>
+template <class Law, bool moved>
 EMP_ALWAYS_INLINE void Solver<D, K>::corotationalOfRun2(const int* ids, const St* st, int n, double dt, double* J,
                                                          PointTensor<D>* out)
 {
@@ -635,17 +650,19 @@ EMP_ALWAYS_INLINE void Solver<D, K>::corotationalOfRun2(const int* ids, const St
         const PassArrays a = passArrays();
         for (int i = 0; i < n; ++i) {
             const int p = ids[i];
-            if constexpr (!K::gradientJumpsAtNodes) {
-                // L's columns from the 4-lane sums, each lane stored where it goes (as a 2 x 2
-                // matrix GCC took the lanes apart through the stack; updateStrain): L = c / h,
-                // the operations of velocityGradient.
-                Lane3::V c;
-                st[i].velocitySums2(grid_, [&](int I) EMP_LAMBDA_INLINE -> const Vec<D>& { return a.velocity[I]; }, c);
-                const Lane3::V L = grid_.invh * c;  // {L00, L10, L01, L11}
-                l[0][i] = L[0], l[1][i] = L[2], l[2][i] = L[1], l[3][i] = L[3];
-            } else {
-                const Mat<D> L = velocityGradient(a, p, st[i]);
-                l[0][i] = L(0, 0), l[1][i] = L(0, 1), l[2][i] = L(1, 0), l[3][i] = L(1, 1);
+            if constexpr (!moved) {  // (else F as G2P left it: no gradients here)
+                if constexpr (!K::gradientJumpsAtNodes) {
+                    // L's columns from the 4-lane sums, each lane stored where it goes (as a 2 x 2
+                    // matrix GCC took the lanes apart through the stack; updateStrain): L = c / h,
+                    // the operations of velocityGradient.
+                    Lane3::V c;
+                    st[i].velocitySums2(grid_, [&](int I) EMP_LAMBDA_INLINE -> const Vec<D>& { return a.velocity[I]; }, c);
+                    const Lane3::V L = grid_.invh * c;  // {L00, L10, L01, L11}
+                    l[0][i] = L[0], l[1][i] = L[2], l[2][i] = L[1], l[3][i] = L[3];
+                } else {
+                    const Mat<D> L = velocityGradient(a, p, st[i]);
+                    l[0][i] = L(0, 0), l[1][i] = L(0, 1), l[2][i] = L(1, 0), l[3][i] = L(1, 1);
+                }
             }
             const Mat<D>& F = a.P.deformationGradient[p];
             f[0][i] = F(0, 0), f[1][i] = F(0, 1), f[2][i] = F(1, 0), f[3][i] = F(1, 1);
@@ -658,14 +675,18 @@ EMP_ALWAYS_INLINE void Solver<D, K>::corotationalOfRun2(const int* ids, const St
     // options: 1.29 -> 1.25 times the default's step, although 888 instead of 873 instructions a
     // point-step; doc/performance.md, "Session 43"). The same operations per lane.
     alignas(64) double u[4][stressRun], rc[stressRun], rs[stressRun], s[4][stressRun];
-    forLanes(n, [&](int i) EMP_LAMBDA_INLINE {
-        const Plain2 F = deformationUpdate2(dt, {l[0][i], l[1][i], l[2][i], l[3][i]}, {f[0][i], f[1][i], f[2][i], f[3][i]});
-        f[0][i] = F.xx, f[1][i] = F.xy, f[2][i] = F.yx, f[3][i] = F.yy;
-        J[i] = F.xx * F.yy - F.yx * F.xy;  // (Eigen's 2 x 2 determinant)
-        Plain2 U;
-        ok[i] = polarDecomposition2(F, rc[i], rs[i], U) ? 1.0 : 0.0;
-        u[0][i] = U.xx, u[1][i] = U.xy, u[2][i] = U.yx, u[3][i] = U.yy;
-    });
+    const auto polar = [&](auto update) EMP_LAMBDA_INLINE {
+        forLanes(n, [&](int i) EMP_LAMBDA_INLINE {
+            const Plain2 F0{f[0][i], f[1][i], f[2][i], f[3][i]};
+            const Plain2 F = decltype(update)::value ? deformationUpdate2(dt, {l[0][i], l[1][i], l[2][i], l[3][i]}, F0) : F0;
+            if constexpr (decltype(update)::value) f[0][i] = F.xx, f[1][i] = F.xy, f[2][i] = F.yx, f[3][i] = F.yy;
+            J[i] = F.xx * F.yy - F.yx * F.xy;  // (Eigen's 2 x 2 determinant)
+            Plain2 U;
+            ok[i] = polarDecomposition2(F, rc[i], rs[i], U) ? 1.0 : 0.0;
+            u[0][i] = U.xx, u[1][i] = U.xy, u[2][i] = U.yx, u[3][i] = U.yy;
+        });
+    };
+    polar(std::bool_constant<!moved>{});
     forLanes(n, [&](int i) EMP_LAMBDA_INLINE {
         const double exx = u[0][i] - 1.0, exy = u[1][i] - 0.0, eyx = u[2][i] - 0.0, eyy = u[3][i] - 1.0;
         Law::response2(exx, exy, eyx, eyy, c[i], lambda[i], mu[i], s[0][i], s[1][i], s[2][i], s[3][i], psiPlus[i], psiMinus[i]);
@@ -676,7 +697,7 @@ EMP_ALWAYS_INLINE void Solver<D, K>::corotationalOfRun2(const int* ids, const St
     });
     for (int i = 0; i < n; ++i) {
         const int p = ids[i];
-        P.deformationGradient[p] << f[0][i], f[1][i], f[2][i], f[3][i];
+        if constexpr (!moved) P.deformationGradient[p] << f[0][i], f[1][i], f[2][i], f[3][i];
         if (ok[i] == 0) {  // a degenerate F: NaN stress, reported by the step's check (corotationalStress)
             out[i].setConstant(std::numeric_limits<double>::quiet_NaN());
             continue;
@@ -687,6 +708,7 @@ EMP_ALWAYS_INLINE void Solver<D, K>::corotationalOfRun2(const int* ids, const St
 }
 
 template <int D, class K>
+template <bool moved>
 EMP_NOINLINE void Solver<D, K>::corotationalOfRun3(const int* ids, const St* st, int n, double dt, double* J,
                                                    PointTensor<D>* out)
 {
@@ -713,7 +735,7 @@ EMP_NOINLINE void Solver<D, K>::corotationalOfRun3(const int* ids, const St* st,
             forEntries([&](auto k) EMP_LAMBDA_INLINE { a[k][i] = m.a[k / 3][k % 3]; });
         };
         const PassArrays a = passArrays();
-        for (int i = 0; i < n; ++i) {
+        for (int i = 0; i < (moved ? 0 : n); ++i) {  // (moved: F as G2P left it, no gradients here)
             if constexpr (!K::gradientJumpsAtNodes) {
                 // L(row, column) = c_column[row] / h from the Lane3 sums, the operations of
                 // velocityGradient; four points' sums go into the lanes by one transpose per
@@ -728,7 +750,7 @@ EMP_NOINLINE void Solver<D, K>::corotationalOfRun3(const int* ids, const St* st,
             }
         }
         const int i4 = n - n % 4;
-        if constexpr (!K::gradientJumpsAtNodes) {
+        if constexpr (!moved && !K::gradientJumpsAtNodes) {
             const lanes9::V4 invh{grid_.invh, grid_.invh, grid_.invh, grid_.invh};
             for (int i = 0; i < i4; i += 4)
                 for (int col = 0; col < 3; ++col) {
@@ -751,16 +773,23 @@ EMP_NOINLINE void Solver<D, K>::corotationalOfRun3(const int* ids, const St* st,
         }
         for (int i = i4; i < n; ++i)
             for (int k = 0; k < 9; ++k) f[k][i] = P.deformationGradient[ids[i]](k / 3, k % 3);
-        // F <- (I - dt L)^-1 F; the Newton iteration starts from F (state 1: iterating, 0: refused).
-        for (int i = 0; i < n; ++i) {
-            Plain3 A = load(r, i);
-            forEntries([&](auto k) EMP_LAMBDA_INLINE { A.a[k / 3][k % 3] = (k % 4 == 0 ? 1.0 : 0.0) - dt * A.a[k / 3][k % 3]; });
-            const Plain3 F = product3(inverse3<false>(A), load(f, i));
-            store(f, i, F);
+        // F <- (I - dt L)^-1 F (unless G2P has updated it); the Newton iteration starts from F
+        // (state 1: iterating, 0: refused).
+        const auto start = [&](int i, const Plain3& F) EMP_LAMBDA_INLINE {
             store(x, i, F);
             J[i] = determinant3(F);
             state[i] = J[i] > 0 ? 1.0 : 0.0;
-        }
+        };
+        if constexpr (moved)
+            for (int i = 0; i < n; ++i) start(i, load(f, i));
+        else
+            for (int i = 0; i < n; ++i) {
+                Plain3 A = load(r, i);
+                forEntries([&](auto k) EMP_LAMBDA_INLINE { A.a[k / 3][k % 3] = (k % 4 == 0 ? 1.0 : 0.0) - dt * A.a[k / 3][k % 3]; });
+                const Plain3 F = product3(inverse3<false>(A), load(f, i));
+                store(f, i, F);
+                start(i, F);
+            }
         // polarDecomposition's iteration (state 2: converged; 1 after 40 iterations: refused).
         // One iteration takes the lanes still iterating one Newton step from `from` into `to`
         // (the others copied), in one loop that GCC vectorises: it needs the result in another
@@ -808,12 +837,14 @@ EMP_NOINLINE void Solver<D, K>::corotationalOfRun3(const int* ids, const St* st,
             for (int k = 0; k < 9; ++k) eps(k / 3, k % 3) = u[k][i] - (k % 4 == 0 ? 1.0 : 0.0);
             return eps;
         };
-        for (int i = 0; i < i4; i += 4) {  // (F back, as it came: lanesToMatrices3)
-            double* const m[4] = {matrix(i), matrix(i + 1), matrix(i + 2), matrix(i + 3)};
-            lanesToMatrices3(f, i, m);
+        if constexpr (!moved) {
+            for (int i = 0; i < i4; i += 4) {  // (F back, as it came: lanesToMatrices3)
+                double* const m[4] = {matrix(i), matrix(i + 1), matrix(i + 2), matrix(i + 3)};
+                lanesToMatrices3(f, i, m);
+            }
+            for (int i = i4; i < n; ++i)
+                for (int k = 0; k < 9; ++k) P.deformationGradient[ids[i]](k / 3, k % 3) = f[k][i];
         }
-        for (int i = i4; i < n; ++i)
-            for (int k = 0; k < 9; ++k) P.deformationGradient[ids[i]](k / 3, k % 3) = f[k][i];
         for (int i = 0; i < n; ++i)
             if (state[i] != 2.0)  // (a degenerate F: its lane's Cauchy stress is not used)
                 for (int k = 0; k < 9; ++k) sig[k][i] = 0;
@@ -1231,8 +1262,8 @@ template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThre
         finish(A, p, v, vg, acc);
     };
     // APIC: v_p = sum N v_I and B_p = sum N v_I (x_I - x_p)^T (Kinematics.hpp). Forced inline
-    // into the loop.
-    const auto apic = [&](const PassArrays& A, int k, Check& acc) EMP_LAMBDA_INLINE {
+    // into the loop. With the co-rotational update (`moveF`), F too (deformationInG2P).
+    const auto apicWith = [&](auto moveF) { return [&](const PassArrays& A, int k, Check& acc) EMP_LAMBDA_INLINE {
         const auto& P = A.P;
         const int p = A.order[k];
         const St& st = A.stencil[k];
@@ -1261,8 +1292,18 @@ template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThre
         for (int d = 0; d < D; ++d) affine += P.affineVelocity[p].col(d).dot(Bu.col(d));
         acc.kinetic += 0.5 * P.mass(p) * (P.v[p].dot(vg) + affine);
         P.affineVelocity[p] = g.h * Bu;
+        if constexpr (decltype(moveF)::value) {
+            // The points move by x <- x + dt sum N v_I; C_p = B_p D_p^-1 at the position the sums
+            // were taken at (Bu diag(r), r = 1 / (h du) from P2G's frame there, kept in
+            // PassArrays::scale) is that motion's gradient divided by dt for any affine field of
+            // v_I, and its least-squares fit otherwise: F <- (I + dt C_p) F.
+            Mat<D> Cdt;
+            for (int d = 0; d < D; ++d) Cdt.col(d) = (dt * A.scale[d][k]) * Bu.col(d);
+            Mat<D>& F = P.deformationGradient[p];
+            F += Cdt * F;
+        }
         finish(A, p, vg, vg, acc);
-    };
+    }; };
     const auto combine = [](Check& total, const Check& part) {
         total.lo = total.lo.cwiseMin(part.lo);
         total.hi = total.hi.cwiseMax(part.hi);
@@ -1282,8 +1323,9 @@ template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThre
             withLaneIsa(block);
         };
     };
-    Check c = settings_.transfer == Transfer::apic ? schedule_.gather(nThreads, Check{}, inLanes(apic), combine)
-                                                   : schedule_.gather(nThreads, Check{}, inLanes(flip), combine);
+    Check c = deformationInG2P()                       ? schedule_.gather(nThreads, Check{}, inLanes(apicWith(std::true_type{})), combine)
+              : settings_.transfer == Transfer::apic ? schedule_.gather(nThreads, Check{}, inLanes(apicWith(std::false_type{})), combine)
+                                                     : schedule_.gather(nThreads, Check{}, inLanes(flip), combine);
     const auto offGrid = [&](const Vec<D>& x) {
         for (int d = 0; d < D; ++d) {
             const int b = K::base((x[d] - g.origin[d]) * g.invh);  // monotone in x

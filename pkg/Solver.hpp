@@ -227,6 +227,15 @@ public:
     using StressObserver = std::function<void(const int* ids, int n, const PointTensor<D>* sigma)>;
     void observeStresses(StressObserver f) { stressObserver_ = std::move(f); }
     const SolverSettings& settings() const { return settings_; }
+    /// With APIC and the co-rotational update together, G2P updates F (F <- (I + dt C_p) F, the
+    /// gradient of the points' motion through the affine fit C_p = B_p D_p^-1 it has just
+    /// summed; Kinematics.hpp) and the stress pass takes F as it is, without velocity gradients. After a
+    /// step, F (so stressOf and strainOf) is then that of the state the step reached, the one the next
+    /// step's forces start from.
+    bool deformationInG2P() const
+    {
+        return settings_.transfer == Transfer::apic && settings_.stressUpdate == StressUpdate::corotational;
+    }
     const std::vector<TractionCondition>& tractions() const { return tractions_; }
     /// The velocity conditions by id (reaction(id)), and every grid condition in order.
     const std::vector<std::shared_ptr<VelocityCondition<D>>>& velocityConditions() const { return velocityConditions_; }
@@ -283,15 +292,20 @@ private:
         Vec<D>* velocity;
         Vec<D>* force;
         double* offset[D];     ///< APIC: offset_'s array of each direction (offset[d][k]; else null)
+        double* scale[D];      ///< APIC + co-rotational: the frames' r (scale[d][k]; else null)
         double* massMomentum;  ///< Grid::massMomentum (P2G's sums)
     };
     PassArrays passArrays()
     {
         PassArrays a{points_.view(), schedule_.order().data(), stencil_.data(), grid_.mass.data(),
-                     grid_.momentum.data(), grid_.velocity.data(), grid_.force.data(), {},
+                     grid_.momentum.data(), grid_.velocity.data(), grid_.force.data(), {}, {},
                      grid_.massMomentum.data()};
-        const std::size_t n = offset_.size() / D;
-        for (int d = 0; d < D; ++d) a.offset[d] = offset_.empty() ? nullptr : offset_.data() + d * n;
+        const std::size_t n = stencil_.size();
+        const bool scales = !offset_.empty() && offset_.size() > D * n;
+        for (int d = 0; d < D; ++d) {
+            a.offset[d] = offset_.empty() ? nullptr : offset_.data() + d * n;
+            a.scale[d] = scales ? offset_.data() + (D + d) * n : nullptr;
+        }
         return a;
     }
     /// Eq 27's velocity gradient at point p, from the nodal masses and velocities of A (a
@@ -323,11 +337,13 @@ private:
     void corotationalOfRun(const int* ids, const St* st, int n, double dt, double* J, PointTensor<D>* sigma);
     /// The same for n 2D points at once, on plain numbers (Kinematics.hpp, Plain2) and the law's
     /// pointwise response: bitwise the per-point update.
-    template <class Law>
+    /// (`moved`: F as G2P left it, deformationInG2P; else F <- (I - dt L)^-1 F first.)
+    template <class Law, bool moved>
     void corotationalOfRun2(const int* ids, const St* st, int n, double dt, double* J, PointTensor<D>* sigma);
     /// The same for n 3D points: the algebra (F, polar decomposition, Cauchy stress) in
     /// vectorised loops on plain numbers (Kinematics.hpp, Plain3), the law through its response3
     /// where the points share one (else point by point). Bitwise the per-point update.
+    template <bool moved>
     void corotationalOfRun3(const int* ids, const St* st, int n, double dt, double* J, PointTensor<D>* sigma);
     /// When the n points ids share a law with the pointwise response of dimension D (Law.hpp,
     /// response2 or response3): f(law) and true; otherwise false.
@@ -412,7 +428,9 @@ private:
     std::vector<St> stencil_;  ///< stencil_[k] is that of point schedule_.order()[k] in this step
     /// APIC: the offsets b[d] of P2G's frame (Stencil::AffineFrame) of the point in slot k, at
     /// offset_[d * n + k] for n points (one array per direction, which computeRun's lanes write
-    /// as they are), read by G2P (the point has not moved since); empty with FLIP.
+    /// as they are), read by G2P (the point has not moved since); empty with FLIP. With the
+    /// co-rotational update too (deformationInG2P), the frames' r[d] follow, at
+    /// offset_[(D + d) * n + k], for G2P's C_p.
     std::vector<double> offset_;
     std::shared_ptr<Distribution<D>> dist_;
     GhostPoints<D> ghosts_;

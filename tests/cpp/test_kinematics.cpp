@@ -190,9 +190,11 @@ TEST(Kinematics, LaneTransposesAreEntryCopies3D)
 /// its run took the vectorised update (points sharing a law with response2) or the per-point one
 /// (runs mixing laws where the blocks meet, and the volumetric law, which has no response2); in
 /// 3D through the run's plain-number algebra (corotationalOfRun3) with the laws point by point.
-template <int D> void checkCorotationalRuns()
+/// With APIC the runs take F as G2P left it (Solver::deformationInG2P).
+template <int D> void checkCorotationalRuns(Transfer t)
 {
-    Solver<D, GimpKernel> s(settings(0.01, Transfer::flip, StressUpdate::corotational));
+    SCOPED_TRACE(emp::name(t));
+    Solver<D, GimpKernel> s(settings(0.01, t, StressUpdate::corotational));
     const int m0 = s.addMaterial(2e7, 0.25, 1000, false, emp::lawIndex("spectral"));
     const int m1 = s.addMaterial(3e7, 0.2, 1200, true, emp::lawIndex("volumetric"));
     const int m2 = s.addMaterial(1e7, 0.3, 900, true, emp::lawIndex("spectral"));
@@ -220,16 +222,26 @@ template <int D> void checkCorotationalRuns()
     for (std::size_t p = 0; p < P.size(); p += 3) P.damage[p] = 0.5 * (p % 2);  // some damaged or eroded
     const auto made = emptest::recordStresses(s);
     const double dt = 0.5 * s.criticalTimeStep();
-    for (int k = 0; k < 5; ++k) s.step(dt, 1);
+    for (int k = 0; k < 4; ++k) s.step(dt, 1);
+    // With APIC the last step's stress pass took F as the step before left it; G2P has moved it since.
+    const auto before = P.deformationGradient;
+    s.step(dt, 1);
     int tensile = 0, turned = 0;
     for (std::size_t p = 0; p < P.size(); ++p) {
         Mat<D> R, U;
-        ASSERT_TRUE(emp::polarDecomposition(P.deformationGradient[p], R, U)) << "point " << p;
+        if (t == Transfer::apic) {
+            ASSERT_TRUE(emp::polarDecomposition(P.deformationGradient[p], R, U)) << "point " << p;
+            const Mat<D> now = U - Mat<D>::Identity();
+            for (int k = 0; k < D * D; ++k) ASSERT_EQ(bits(P.strainOf(p)(k)), bits(now(k))) << "point " << p;
+        }
+        const Mat<D>& F = t == Transfer::apic ? before[p] : P.deformationGradient[p];
+        ASSERT_TRUE(emp::polarDecomposition(F, R, U)) << "point " << p;
         // The co-rotated strain is not stored: strainOf derives it from F, and the stress and
         // energy below show it is, bitwise, the strain the stress update used.
         const Mat<D> eps = U - Mat<D>::Identity();
         ASSERT_TRUE(P.strain.empty());
-        for (int k = 0; k < D * D; ++k) ASSERT_EQ(bits(P.strainOf(p)(k)), bits(eps(k))) << "point " << p;
+        if (t == Transfer::flip)
+            for (int k = 0; k < D * D; ++k) ASSERT_EQ(bits(P.strainOf(p)(k)), bits(eps(k))) << "point " << p;
         const auto r = emp::lawResponse<D>(eps, s.materials()[P.material[p]]);
         const Mat<D> sigma = emp::cauchyStress<D>(R, U, P.damage[p] * r.sigmaPlus + r.sigmaMinus);
         for (int k = 0; k < D * D; ++k) ASSERT_EQ(bits((*made)[p](k)), bits(sigma(k))) << "point " << p;
@@ -242,8 +254,55 @@ template <int D> void checkCorotationalRuns()
     EXPECT_EQ(turned, static_cast<int>(P.size()));  // and every point has turned
 }
 
-TEST(Kinematics, CorotationalRunsGiveEachPointItsOwnUpdateBitwise2D) { checkCorotationalRuns<2>(); }
-TEST(Kinematics, CorotationalRunsGiveEachPointItsOwnUpdateBitwise3D) { checkCorotationalRuns<3>(); }
+TEST(Kinematics, CorotationalRunsGiveEachPointItsOwnUpdateBitwise2D) { checkCorotationalRuns<2>(Transfer::flip); }
+TEST(Kinematics, CorotationalRunsGiveEachPointItsOwnUpdateBitwise3D) { checkCorotationalRuns<3>(Transfer::flip); }
+TEST(Kinematics, CorotationalRunsGiveEachPointItsOwnUpdateBitwise2DApic) { checkCorotationalRuns<2>(Transfer::apic); }
+TEST(Kinematics, CorotationalRunsGiveEachPointItsOwnUpdateBitwise3DApic) { checkCorotationalRuns<3>(Transfer::apic); }
+
+/// With APIC and the co-rotational update, G2P moves F by the affine fit it has just summed:
+/// after a step of a spinning, shearing block, every point's F is (I + dt B_p D_p^-1) F_before,
+/// B_p the new affine velocity G2P stored and D_p the moment matrix at the point's position
+/// before the step (the plain form: Stencil::offsets, momentDiagonal), to round-off.
+template <int D> void checkDeformationInG2P()
+{
+    Solver<D, GimpKernel> s(settings(0.01, Transfer::apic, StressUpdate::corotational));
+    s.addMaterial(2e7, 0.25, 1000, false, emp::lawIndex("spectral"));
+    std::array<int, D> lo, hi;
+    lo.fill(3);
+    hi.fill(D == 2 ? 9 : 6);
+    hi[0] = 12;
+    emptest::addBlock<D>(s, lo, hi, 0, [](const Vec<D>& x) {
+        Vec<D> v = Vec<D>::Zero();
+        v[0] = -40 * (x[1] - 0.06) + std::sin(40 * x[1]);
+        v[1] = 40 * (x[0] - 0.075) + std::cos(30 * x[0]) - 0.5;
+        if (D == 3) v[D - 1] = 10 * (x[0] - 0.075) + std::sin(20 * x[1]);
+        return v;
+    });
+    const double dt = 0.5 * s.criticalTimeStep();
+    for (int k = 0; k < 3; ++k) s.step(dt, 1);
+    const auto& P = s.points();
+    const auto x0 = P.x;
+    const auto F0 = P.deformationGradient;
+    s.step(dt, 1);
+    double worst = 0, moved = 0;
+    for (std::size_t p = 0; p < P.size(); ++p) {
+        emp::Stencil<D, GimpKernel> st;
+        st.compute(x0[p], s.grid(), s.halfWidth());
+        double o[D][GimpKernel::S];
+        st.offsets(x0[p], s.grid(), o);
+        const Mat<D> C = P.affineVelocity[p] * st.momentDiagonal(o).cwiseInverse().asDiagonal();
+        const Mat<D> expected = (Mat<D>::Identity() + dt * C) * F0[p];
+        worst = std::max(worst, (P.deformationGradient[p] - expected).cwiseAbs().maxCoeff());
+        moved = std::max(moved, (P.deformationGradient[p] - F0[p]).cwiseAbs().maxCoeff());
+    }
+    std::printf("[ measured ] %dD APIC + corotational, one step: max |F - (I + dt B D^-1) F_before| = %.1e, max |F - "
+                "F_before| = %.1e\n", D, worst, moved);
+    EXPECT_GT(moved, 1e-4);      // F did change in the step
+    EXPECT_LT(worst, 1e-15 * 8);  // and by the plain form, to round-off
+}
+
+TEST(Kinematics, ApicCorotationalUpdateMovesFInG2P2D) { checkDeformationInG2P<2>(); }
+TEST(Kinematics, ApicCorotationalUpdateMovesFInG2P3D) { checkDeformationInG2P<3>(); }
 
 /// MaterialPoints::stressOf (what the outputs and erosion read) is bitwise the stress the step's
 /// force used (as the stress pass made it: Solver::observeStresses), for every transfer and
@@ -295,7 +354,8 @@ template <int D, class K> void checkStressOf(Transfer t, StressUpdate u)
     for (std::size_t p = 0; p < P.size(); ++p) {
         const Mat<D> sigma = P.stressOf(p, s.materials());
         if (erodedNow[p] < 0) {
-            for (int k = 0; k < D * D; ++k) ASSERT_EQ(bits(sigma(k)), bits((*made)[p](k))) << "point " << p;
+            if (!s.deformationInG2P())  // (else: below)
+                for (int k = 0; k < D * D; ++k) ASSERT_EQ(bits(sigma(k)), bits((*made)[p](k))) << "point " << p;
         } else {
             const Mat<D>& before = erosion->stressBeforeErosion()[erodedNow[p]];
             for (int k = 0; k < D * D; ++k) ASSERT_EQ(bits(before(k)), bits((*made)[p](k))) << "point " << p;
@@ -313,6 +373,16 @@ template <int D, class K> void checkStressOf(Transfer t, StressUpdate u)
     EXPECT_GT(erosion->erodedCount(), 0u);
     EXPECT_LT(erosion->erodedCount(), P.size() / 4);
     EXPECT_GT(damaged, static_cast<int>(erosion->erodedCount()));
+    if (s.deformationInG2P()) {
+        // G2P has moved F since the pass: stressOf gives the stress of the state the step reached,
+        // which is, bitwise, the one the next step's pass makes (for every point: erosion changes
+        // damage after the pass).
+        std::vector<Mat<D>> now;
+        for (std::size_t p = 0; p < P.size(); ++p) now.push_back(P.stressOf(p, s.materials()));
+        s.step(dt, 2);
+        for (std::size_t p = 0; p < P.size(); ++p)
+            for (int k = 0; k < D * D; ++k) ASSERT_EQ(bits(now[p](k)), bits((*made)[p](k))) << "point " << p;
+    }
 }
 
 
@@ -333,7 +403,8 @@ TYPED_TEST(KinematicsTyped, StressOfIsTheStressTheStepUsed)
 /// A block with free faces and an interior crack carries v = a + A x (a rotation, a stretch
 /// and a shear): with APIC the first step's nodal velocities are a + A x_I at every node with
 /// mass (faces and phantom twins too), so every point's strain increment is dt sym(A) and its
-/// new velocity a + A x_p; G2P's B_p is A D_p. FLIP misses at the faces (measured).
+/// new velocity a + A x_p; G2P's B_p is A D_p, and with the co-rotational update its F is
+/// I + dt A (the motion's gradient). FLIP misses at the faces (measured).
 TYPED_TEST(KinematicsTyped, AffineVelocityFieldIsCarriedExactlyByApic)
 {
     constexpr int D = TypeParam::D;
@@ -353,8 +424,11 @@ TYPED_TEST(KinematicsTyped, AffineVelocityFieldIsCarriedExactlyByApic)
     Vec<D> a = Vec<D>::Constant(0.2);
     const auto field = [&](const Vec<D>& x) { return Vec<D>(a + A * x); };
     double worst[2] = {0, 0};
-    for (Transfer t : {Transfer::apic, Transfer::flip}) {
-        Solver<D, K> s(settings(h, t, StressUpdate::smallStrain));
+    const std::pair<Transfer, StressUpdate> cases[] = {{Transfer::apic, StressUpdate::smallStrain},
+                                                       {Transfer::apic, StressUpdate::corotational},
+                                                       {Transfer::flip, StressUpdate::smallStrain}};
+    for (const auto& [t, u] : cases) {
+        Solver<D, K> s(settings(h, t, u));
         // So soft that the first step's stress moves nothing: the transfer alone is measured.
         const int mat = s.addMaterial(1e-6, 0.3, 1000, false, emp::lawIndex("spectral"));
         std::array<int, D> lo, hi;
@@ -375,10 +449,13 @@ TYPED_TEST(KinematicsTyped, AffineVelocityFieldIsCarriedExactlyByApic)
         s.step(dt, 1);
         ASSERT_GT(s.phantomNodes().numTwins(), 0);
         const auto& P = s.points();
-        const Mat<D> expected = 0.5 * dt * (A + A.transpose());
+        // The strain increment dt sym(A); with the co-rotational update (F from G2P), F = I + dt A.
+        const Mat<D> expected = u == StressUpdate::corotational ? Mat<D>(dt * A) : Mat<D>(0.5 * dt * (A + A.transpose()));
         double e = 0, ev = 0, eb = 0;
         for (int p : ids) {
-            e = std::max(e, (emp::full(P.strain[p]) - expected).cwiseAbs().maxCoeff() / expected.cwiseAbs().maxCoeff());
+            const Mat<D> got = u == StressUpdate::corotational ? Mat<D>(P.deformationGradient[p] - Mat<D>::Identity())
+                                                                : Mat<D>(emp::full(P.strain[p]));
+            e = std::max(e, (got - expected).cwiseAbs().maxCoeff() / expected.cwiseAbs().maxCoeff());
             ev = std::max(ev, (P.v[p] - field(x0[p])).norm() / field(x0[p]).norm());
             if (t == Transfer::apic) {
                 emp::Stencil<D, K> st;
@@ -389,9 +466,9 @@ TYPED_TEST(KinematicsTyped, AffineVelocityFieldIsCarriedExactlyByApic)
                 eb = std::max(eb, (P.affineVelocity[p] - B).cwiseAbs().maxCoeff() / B.cwiseAbs().maxCoeff());
             }
         }
-        worst[t == Transfer::flip] = e;
+        if (u == StressUpdate::smallStrain) worst[t == Transfer::flip] = e;
         if (t == Transfer::apic) {
-            EXPECT_LT(e, 1e-9) << "strain increment";
+            EXPECT_LT(e, 1e-9) << (u == StressUpdate::corotational ? "F - I" : "strain increment");
             EXPECT_LT(ev, 1e-12) << "velocity";
             EXPECT_LT(eb, 1e-12) << "B_p";
         }
@@ -528,8 +605,10 @@ template <int D, class K> void checkRigidTurn()
             const int steps = 60;
             s.addCondition(std::make_shared<RigidTurn<D>>(Vec<D>::Zero(), angle / steps));
             const double dt = 0.5 * s.criticalTimeStep();
-            // A step's stress is that of the state it starts from: step steps + 1 has the turned one.
-            for (int n = 0; n <= steps; ++n) s.step(dt, 1);
+            // A step's stress is that of the state it starts from: step steps + 1 has the turned one
+            // (with APIC + co-rotational, G2P's F: the state after step `steps` has it).
+            const int last = s.deformationInG2P() ? steps - 1 : steps;
+            for (int n = 0; n <= last; ++n) s.step(dt, 1);
             const Mat<D> R = rotation<D>(angle);
             const Mat<D> expected = prestressed ? Mat<D>(R * sigma0 * R.transpose()) : Mat<D>::Zero();
             const double scale = prestressed ? sigma0.cwiseAbs().maxCoeff() : E * 1e-3;

@@ -103,20 +103,26 @@ def test_lpanel_initiation_matches_the_criterion_on_the_elastic_field(tmp_path):
 def test_crack_branching_quick_energy_balance_with_apic_and_corotational(tmp_path):
     # The quick plate with the affine transfer and the co-rotational update (issue 14): the options
     # reach the solver and the summary, and the energy balance Ek + Ee + Ef - Wext is recorded.
-    # Measured (h = 1 mm, 40 us): initiation 10.76 us, 462 points eroded, Wext 0.230 J, balance
-    # -0.0098 J at the end (-0.0063 J with FLIP + small strain), 4e-5 J before the first erosion.
+    # Measured (h = 1 mm, 40 us; session 48, F updated by G2P): initiation 10.76 us, 440 points
+    # eroded, Wext 0.230 J, balance -0.0098 J at the end (-0.0063 J with FLIP + small strain), 4e-5 J
+    # before the first erosion.
     s = run("crack_branching.py", tmp_path, "transfer=APIC", "stressUpdate=corotational")
     assert (s["transfer"], s["stress_update"]) == ("APIC", "corotational")
     assert (s["parameters"]["transfer"], s["parameters"]["stressUpdate"]) == ("APIC", "corotational")
     assert {"external_work_J", "energy_balance_final_J", "energy_balance_max_abs_J"} <= set(s)
     assert 8 < s["initiation_time_us"] < 14 and s["eroded_count"] > 200
     assert s["external_work_J"] > 0
-    assert abs(s["energy_balance_final_J"]) <= s["energy_balance_max_abs_J"] + 1e-4 * s["external_work_J"]
-    assert s["energy_balance_max_abs_J"] < 0.1 * s["external_work_J"]
     rows = open(tmp_path / "energy.csv").read().splitlines()
     assert rows[0] == "t_us,Ek_J,Ee_J,Ef_J,Wext_J,balance_J" and len(rows) == 501
+    # The final balance (at 40 us, one step after the record's last row) continues the record: it
+    # differs from the last row by no more than the largest change between two rows.
+    bal = [float(r.split(",")[5]) for r in rows[1:]]
+    assert s["energy_balance_max_abs_J"] == pytest.approx(max(abs(b - bal[0]) for b in bal), rel=1e-6)
+    assert abs(s["energy_balance_final_J"] - bal[-1]) <= max(abs(b - a) for a, b in zip(bal, bal[1:]))
+    assert s["energy_balance_max_abs_J"] < 0.1 * s["external_work_J"]
     t, ek, ee, ef, w, b = (float(v) for v in rows[-1].split(","))
-    assert b == pytest.approx(ek + ee + ef - w, abs=1e-9) and ef == pytest.approx(s["dissipated_energy_J"])
+    # (the last row is one step before the end: points may erode in that step)
+    assert b == pytest.approx(ek + ee + ef - w, abs=1e-9) and 0 < ef <= s["dissipated_energy_J"]
     before = [r for r in (list(map(float, r.split(","))) for r in rows[1:]) if r[3] == 0]  # no erosion yet
     b0 = float(rows[1].split(",")[5])
     assert max(abs(r[5] - b0) for r in before) < 0.01 * before[-1][4]  # the scheme's own error: small
