@@ -675,18 +675,17 @@ EMP_ALWAYS_INLINE void Solver<D, K>::corotationalOfRun2(const int* ids, const St
     // options: 1.29 -> 1.25 times the default's step, although 888 instead of 873 instructions a
     // point-step; doc/performance.md, "Session 43"). The same operations per lane.
     alignas(64) double u[4][stressRun], rc[stressRun], rs[stressRun], s[4][stressRun];
-    const auto polar = [&](auto update) EMP_LAMBDA_INLINE {
-        forLanes(n, [&](int i) EMP_LAMBDA_INLINE {
-            const Plain2 F0{f[0][i], f[1][i], f[2][i], f[3][i]};
-            const Plain2 F = decltype(update)::value ? deformationUpdate2(dt, {l[0][i], l[1][i], l[2][i], l[3][i]}, F0) : F0;
-            if constexpr (decltype(update)::value) f[0][i] = F.xx, f[1][i] = F.xy, f[2][i] = F.yx, f[3][i] = F.yy;
-            J[i] = F.xx * F.yy - F.yx * F.xy;  // (Eigen's 2 x 2 determinant)
-            Plain2 U;
-            ok[i] = polarDecomposition2(F, rc[i], rs[i], U) ? 1.0 : 0.0;
-            u[0][i] = U.xx, u[1][i] = U.xy, u[2][i] = U.yx, u[3][i] = U.yy;
-        });
-    };
-    polar(std::bool_constant<!moved>{});
+    forLanes(n, [&](int i) EMP_LAMBDA_INLINE {
+        Plain2 F{f[0][i], f[1][i], f[2][i], f[3][i]};
+        if constexpr (!moved) {
+            F = deformationUpdate2(dt, {l[0][i], l[1][i], l[2][i], l[3][i]}, F);
+            f[0][i] = F.xx, f[1][i] = F.xy, f[2][i] = F.yx, f[3][i] = F.yy;
+        }
+        J[i] = F.xx * F.yy - F.yx * F.xy;  // (Eigen's 2 x 2 determinant)
+        Plain2 U;
+        ok[i] = polarDecomposition2(F, rc[i], rs[i], U) ? 1.0 : 0.0;
+        u[0][i] = U.xx, u[1][i] = U.xy, u[2][i] = U.yx, u[3][i] = U.yy;
+    });
     forLanes(n, [&](int i) EMP_LAMBDA_INLINE {
         const double exx = u[0][i] - 1.0, exy = u[1][i] - 0.0, eyx = u[2][i] - 0.0, eyy = u[3][i] - 1.0;
         Law::response2(exx, exy, eyx, eyy, c[i], lambda[i], mu[i], s[0][i], s[1][i], s[2][i], s[3][i], psiPlus[i], psiMinus[i]);
@@ -735,7 +734,7 @@ EMP_NOINLINE void Solver<D, K>::corotationalOfRun3(const int* ids, const St* st,
             forEntries([&](auto k) EMP_LAMBDA_INLINE { a[k][i] = m.a[k / 3][k % 3]; });
         };
         const PassArrays a = passArrays();
-        for (int i = 0; i < (moved ? 0 : n); ++i) {  // (moved: F as G2P left it, no gradients here)
+        for (int i = 0; i < (moved ? 0 : n); ++i) {  // (moved: F as G2P left it, no gradient)
             if constexpr (!K::gradientJumpsAtNodes) {
                 // L(row, column) = c_column[row] / h from the Lane3 sums, the operations of
                 // velocityGradient; four points' sums go into the lanes by one transpose per
@@ -801,7 +800,7 @@ EMP_NOINLINE void Solver<D, K>::corotationalOfRun3(const int* ids, const St* st,
                 const Plain3 X = load(from, i), next = polarNewton3(X);
                 const double change = polarChange3(X, next), s = state[i];
                 forEntries([&](auto k) EMP_LAMBDA_INLINE { to[k][i] = s == 1.0 ? next.a[k / 3][k % 3] : X.a[k / 3][k % 3]; });
-                state[i] = s == 1.0 ? (change < 1e-8 ? 2.0 : 1.0) : s;
+                state[i] = s == 1.0 ? (change < polarSettle ? 2.0 : 1.0) : s;
             }
             double iterating = 0;
             for (int i = 0; i < n; ++i) iterating += state[i] == 1.0 ? 1.0 : 0.0;
