@@ -95,7 +95,8 @@ template <int D> struct MaterialPoints {
     /// materials[material[p]]'s law: the co-rotational update's rotated back to the spatial
     /// frame (Kinematics.hpp, cauchyStress), NaN for a degenerate F. Bitwise the stress the
     /// step's force used (the same operations as the stress pass's lanes), and after erosion
-    /// (c = 0) sigma- alone. Not stored: the step writes 24 B (2D) or 72 B (3D) less per point.
+    /// (c = 0) sigma- alone; with APIC + co-rotational, whose G2P has moved F since, the stress
+    /// the next step's force will use (Solver::deformationInG2P). Not stored: the step writes 24 B (2D) or 72 B (3D) less per point.
     /// `eps`, when given, receives the strain the law saw (strainOf(p), without a second polar
     /// decomposition).
     Mat<D> stressOf(std::size_t p, const std::vector<ElasticMaterial>& materials, Mat<D>* eps = nullptr) const
