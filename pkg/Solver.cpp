@@ -893,8 +893,8 @@ EMP_NOINLINE void Solver<D, K>::corotationalOfRun3(const int* ids, const St* st,
 }
 
 template <int D, class K>
-template <bool withGravity, bool corotational>
-EMP_ALWAYS_INLINE void Solver<D, K>::scatterInternalForce(const PassArrays& a, int p, const St& st, const PointTensor<D>& sigma,
+template <bool withGravity, bool corotational, bool affine>
+EMP_ALWAYS_INLINE void Solver<D, K>::scatterInternalForce(const PassArrays& a, int k, const PointTensor<D>& sigma,
                                                            const Vec<D>& gravity, double J)
 {
     // f_I += N_I m_p b - V_p sigma_p grad N_I (Eqs 13-14). Without gravity the body force term
@@ -902,8 +902,31 @@ EMP_ALWAYS_INLINE void Solver<D, K>::scatterInternalForce(const PassArrays& a, i
     // update's volume is the current one, J V_p (V_p sigma = V_0 tau, Kinematics.hpp).
     const auto& g = grid_;
     const auto& P = a.P;
+    const int p = a.order[k];
+    const St& st = a.stencil[k];
     const double volume = corotational ? P.volume[p] * J : P.volume[p];
     const Mat<D> vs = volume * full(sigma);
+    if constexpr (affine) {
+        // APIC with the co-rotational update (deformationInG2P): f_I += N_I (m_p b - V_0 tau
+        // D_p^-1 (x_I - x_p)), the force whose power is that of the stress on G2P's C_p
+        // (affineForce). In cells from P2G's frame: D_p^-1 (x_I - x_p) = diag(r) u_I.
+        double u[D][S];
+        for (int d = 0; d < D; ++d)
+            for (int i = 0; i < S; ++i) u[d][i] = a.offset[d][k] + i;
+        double r[D];
+        for (int d = 0; d < D; ++d) r[d] = a.scale[d][k];
+        const Mat<D> M = affineForce(vs, r);
+        const Vec<D> fb = withGravity ? Vec<D>(P.mass(p) * gravity) : Vec<D>::Zero();
+        if (st.regular()) {  // (the same sums by rows: Stencil::forEachRowAffine)
+            st.forEachRowAffine(g, u, fb, -1.0, M, [&](int I0, const double*, const double* Nt) EMP_LAMBDA_INLINE {
+                double* f = a.force[I0].data();
+                for (int e = 0; e < S * D; ++e) f[e] += Nt[e];
+            });
+            return;
+        }
+        st.forEachAffine(g, u, fb, Mat<D>(-1.0 * M), [&](int I, double N, const Vec<D>& m) { a.force[I] += N * m; });
+        return;
+    }
     if (st.regular()) {  // (the same sums by rows: Stencil::forEachRowProjected)
         const Vec<D> fb = withGravity ? Vec<D>(P.mass(p) * gravity) : Vec<D>::Zero();
         st.forEachRowProjected(g, vs, [&](int I0, const double* N, const double* t) EMP_LAMBDA_INLINE {
@@ -936,7 +959,7 @@ template <int D, class K> void Solver<D, K>::stressAndInternalForce(double dt, i
     const std::vector<NodeField> fields{{grid_.force.data()->data(), D}};
     std::function<void(int)> between;
     if (dist_) between = [&](int k) { dist_->afterPhase(k, schedule_.numPhases(), grid_, fields); };
-    const auto pass = [&](auto withGravity, auto corotational) {
+    const auto pass = [&](auto withGravity, auto corotational, auto affine) {
         // A run's update (its strains and law, or the co-rotational update) runs before the
         // forces of the run before it: the update's lanes wait on long chains of divisions and
         // square roots, and the previous run's scatter, which does not need their results, fills
@@ -964,8 +987,8 @@ template <int D, class K> void Solver<D, K>::stressAndInternalForce(double dt, i
             withLaneIsa([&]() EMP_LAMBDA_INLINE {  // (the rows' loops in the lanes' width)
                 const PassArrays a = passArrays();
                 for (int k = begin; k < end; ++k)
-                    scatterInternalForce<decltype(withGravity)::value, decltype(corotational)::value>(
-                        a, a.order[k], a.stencil[k], sigma[k - begin], gravity, decltype(corotational)::value ? J[k - begin] : 0.0);
+                    scatterInternalForce<decltype(withGravity)::value, decltype(corotational)::value, decltype(affine)::value>(
+                        a, k, sigma[k - begin], gravity, decltype(corotational)::value ? J[k - begin] : 0.0);
             });
         };
         schedule_.scatterStrips(nThreads, [&](int stripBegin, int stripEnd) {
@@ -984,11 +1007,17 @@ template <int D, class K> void Solver<D, K>::stressAndInternalForce(double dt, i
     stepLaw_ = materials_.empty() ? -1 : materials_[0].law;
     for (const ElasticMaterial& m : materials_)
         if (m.law != stepLaw_) stepLaw_ = -1;
-    const bool corotational = settings_.stressUpdate == StressUpdate::corotational;
-    if (gravity.isZero(0.0))
-        corotational ? pass(std::false_type{}, std::true_type{}) : pass(std::false_type{}, std::false_type{});
-    else
-        corotational ? pass(std::true_type{}, std::true_type{}) : pass(std::true_type{}, std::false_type{});
+    // Three forms: the small-strain update's, the co-rotational one's (the current volume), and
+    // with APIC too the affine force (scatterInternalForce).
+    const auto withForm = [&](auto withGravity) {
+        if (deformationInG2P())
+            pass(withGravity, std::true_type{}, std::true_type{});
+        else if (settings_.stressUpdate == StressUpdate::corotational)
+            pass(withGravity, std::true_type{}, std::false_type{});
+        else
+            pass(withGravity, std::false_type{}, std::false_type{});
+    };
+    gravity.isZero(0.0) ? withForm(std::false_type{}) : withForm(std::true_type{});
     if (dist_) dist_->finishScatter(grid_, fields);
 }
 
@@ -1038,7 +1067,15 @@ template <int D, class K> void Solver<D, K>::erode(double dt, int nThreads)
         // sigma- now (c = 0; the co-rotational update's rotated back), less the stress the force used
         const Mat<D> dvs = volume * (points_.stressOf(p, materials_) - before[e]);
         const std::int64_t id = dist_ ? points_.globalId[p] : p;
-        st.forEachProjected(g, dvs, [&](int I, double, const Vec<D>& dvsGrad) { addNodeForce(I, -dvsGrad, 0, id); });
+        if (deformationInG2P()) {  // (the pass's affine force: scatterInternalForce)
+            const typename St::AffineFrame f = st.affineFrame(points_.x[p], g);
+            double u[D][S];
+            for (int d = 0; d < D; ++d)
+                for (int i = 0; i < S; ++i) u[d][i] = f.b[d] + i;
+            st.forEachAffine(g, u, Vec<D>::Zero(), affineForce(dvs, f.r), [&](int I, double N, const Vec<D>& m) { addNodeForce(I, -N * m, 0, id); });
+        } else {
+            st.forEachProjected(g, dvs, [&](int I, double, const Vec<D>& dvsGrad) { addNodeForce(I, -dvsGrad, 0, id); });
+        }
     }
 }
 

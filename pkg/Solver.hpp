@@ -231,7 +231,8 @@ public:
     /// gradient of the points' motion through the affine fit C_p = B_p D_p^-1 it has just
     /// summed; Kinematics.hpp) and the stress pass takes F as it is, without velocity gradients. After a
     /// step, F (so stressOf and strainOf) is then that of the state the step reached, the one the next
-    /// step's forces start from.
+    /// step's forces start from. The internal force is then the transpose of that update
+    /// (affineForce).
     bool deformationInG2P() const
     {
         return settings_.transfer == Transfer::apic && settings_.stressUpdate == StressUpdate::corotational;
@@ -348,12 +349,29 @@ private:
     /// When the n points ids share a law with the pointwise response of dimension D (Law.hpp,
     /// response2 or response3): f(law) and true; otherwise false.
     template <class F> bool withSharedPointwiseLaw(const int* ids, int n, F&& f);
-    /// f_I += N_I m_p b - V sigma_p grad N_I (sigma_p: the law's in this pass); V is the current
-    /// volume J V_p with the co-rotational update (J: det F from corotationalOfRun), else V_p (J
-    /// unused).
-    template <bool withGravity, bool corotational>
-    void scatterInternalForce(const PassArrays& a, int p, const St& st, const PointTensor<D>& sigma, const Vec<D>& gravity,
-                              double J);
+    /// f_I += N_I m_p b - V sigma_p grad N_I for the point in slot k (sigma_p: the law's in this
+    /// pass); V is the current volume J V_p with the co-rotational update (J: det F from
+    /// corotationalOfRun), else V_p (J unused). `affine` (APIC with the co-rotational update,
+    /// deformationInG2P): f_I += N_I (m_p b - V sigma_p D_p^-1 (x_I - x_p)) instead (affineForce).
+    template <bool withGravity, bool corotational, bool affine>
+    void scatterInternalForce(const PassArrays& a, int k, const PointTensor<D>& sigma, const Vec<D>& gravity, double J);
+    /// The internal force's matrix where G2P moves F (deformationInG2P): for the point's stress
+    /// times volume vs and its frame's r (r[d] = 1 / (h du_d), Stencil::affineFrameAlong),
+    /// M = vs diag(r), so that node I, at u_I = (x_I - x_p) / h in cells, gets -N_I M u_I =
+    /// -N_I V sigma D_p^-1 (x_I - x_p). Its power on any nodal velocities v_I is -V sigma : C_p
+    /// with G2P's C_p = sum_I N_I v_I (x_I - x_p)^T D_p^-1: the force and the update of F are one
+    /// operator and its transpose (as MLS-MPM's, Hu et al. 2018), so the stress does work only
+    /// through the deformation it follows. (With -V sigma grad N_I instead, the velocity modes
+    /// the affine fit does not see were pushed by a stress they did not strain: John-Shah's beam
+    /// at the paper's resolution eroded some 15 000 points after its notch crack started;
+    /// doc/stability.md.) Where r[d] = 0 (no moment along d: Stencil::affineFrameAlong), the
+    /// stress's column d gives no force, as C_p's column d is 0 there.
+    static Mat<D> affineForce(const Mat<D>& vs, const double* r)
+    {
+        Mat<D> M;
+        for (int d = 0; d < D; ++d) M.col(d) = r[d] * vs.col(d);
+        return M;
+    }
     /// The stencil of one point computed on its own (serial stages: erosion, tractions).
     St stencilOf(int p);
     /// Maps point p's support onto the twins of this step (across the cracks, or its body's)
