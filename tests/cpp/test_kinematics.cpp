@@ -264,21 +264,28 @@ TEST(Kinematics, CorotationalRunsGiveEachPointItsOwnUpdateBitwise3DApic) { check
 /// after a step of a spinning, shearing block, every point's F is (I + dt B_p D_p^-1) F_before,
 /// B_p the new affine velocity G2P stored and D_p the moment matrix at the point's position
 /// before the step (the plain form: Stencil::offsets, momentDiagonal), to round-off.
-template <int D> void checkDeformationInG2P()
+/// A block of 9 x 6 cells (9 x 3 x 3 in 3D) from cell (3, 3), spinning and shearing, `stretch` the
+/// rate of an added stretch along x, in a solver with APIC and the co-rotational update.
+template <int D> void addSpinningShearingBlock(Solver<D, GimpKernel>& s, double stretch)
 {
-    Solver<D, GimpKernel> s(settings(0.01, Transfer::apic, StressUpdate::corotational));
     s.addMaterial(2e7, 0.25, 1000, false, emp::lawIndex("spectral"));
     std::array<int, D> lo, hi;
     lo.fill(3);
     hi.fill(D == 2 ? 9 : 6);
     hi[0] = 12;
-    emptest::addBlock<D>(s, lo, hi, 0, [](const Vec<D>& x) {
+    emptest::addBlock<D>(s, lo, hi, 0, [stretch](const Vec<D>& x) {
         Vec<D> v = Vec<D>::Zero();
-        v[0] = -40 * (x[1] - 0.06) + std::sin(40 * x[1]);
+        v[0] = -40 * (x[1] - 0.06) + (stretch > 0 ? 3 : 1) * std::sin(40 * x[1]) + stretch * (x[0] - 0.07);
         v[1] = 40 * (x[0] - 0.075) + std::cos(30 * x[0]) - 0.5;
         if (D == 3) v[D - 1] = 10 * (x[0] - 0.075) + std::sin(20 * x[1]);
         return v;
     });
+}
+
+template <int D> void checkDeformationInG2P()
+{
+    Solver<D, GimpKernel> s(settings(0.01, Transfer::apic, StressUpdate::corotational));
+    addSpinningShearingBlock(s, 0);
     const double dt = 0.5 * s.criticalTimeStep();
     for (int k = 0; k < 3; ++k) s.step(dt, 1);
     const auto& P = s.points();
@@ -325,18 +332,7 @@ private:
 template <int D> void checkAffineForce()
 {
     Solver<D, GimpKernel> s(settings(0.01, Transfer::apic, StressUpdate::corotational));
-    s.addMaterial(2e7, 0.25, 1000, false, emp::lawIndex("spectral"));
-    std::array<int, D> lo, hi;
-    lo.fill(3);
-    hi.fill(D == 2 ? 9 : 6);
-    hi[0] = 12;
-    emptest::addBlock<D>(s, lo, hi, 0, [](const Vec<D>& x) {
-        Vec<D> v = Vec<D>::Zero();
-        v[0] = -40 * (x[1] - 0.06) + 3 * std::sin(40 * x[1]) + 20 * (x[0] - 0.07);
-        v[1] = 40 * (x[0] - 0.075) + std::cos(30 * x[0]) - 0.5;
-        if (D == 3) v[D - 1] = 10 * (x[0] - 0.075) + std::sin(20 * x[1]);
-        return v;
-    });
+    addSpinningShearingBlock(s, 20);
     if (D == 2)
         s.addCrack({Eigen::Vector3d(0.05, 0.0605, 0), Eigen::Vector3d(0.09, 0.0605, 0)});
     else
