@@ -907,29 +907,28 @@ EMP_ALWAYS_INLINE void Solver<D, K>::scatterInternalForce(const PassArrays& a, i
     const double volume = corotational ? P.volume[p] * J : P.volume[p];
     const Mat<D> vs = volume * full(sigma);
     if constexpr (affine) {
-        // APIC with the co-rotational update (deformationInG2P): f_I += N_I (m_p b - V_0 tau
-        // D_p^-1 (x_I - x_p)), the force whose power is that of the stress on G2P's C_p
-        // (affineForce). In cells from P2G's frame: D_p^-1 (x_I - x_p) = diag(r) u_I.
-        double u[D][S];
-        for (int d = 0; d < D; ++d)
-            for (int i = 0; i < S; ++i) u[d][i] = a.offset[d][k] + i;
-        double r[D];
-        for (int d = 0; d < D; ++d) r[d] = a.scale[d][k];
-        const Mat<D> M = affineForce(vs, r);
-        const Vec<D> fb = withGravity ? Vec<D>(P.mass(p) * gravity) : Vec<D>::Zero();
-        if (st.regular()) {  // (the same sums by rows: Stencil::forEachRowAffine)
-            st.forEachRowAffine(g, u, fb, -1.0, M, [&](int I0, const double*, const double* Nt) EMP_LAMBDA_INLINE {
-                double* f = a.force[I0].data();
-                for (int e = 0; e < S * D; ++e) f[e] += Nt[e];
-            });
-            return;
-        }
-        st.forEachAffine(g, u, fb, Mat<D>(-1.0 * M), [&](int I, double N, const Vec<D>& m) { a.force[I] += N * m; });
-        return;
+        // APIC with the co-rotational update (deformationInG2P): -V sigma D_p^-1 (x_I - x_p) N_I
+        // in place of -V sigma grad N_I, through the stencil with affineGradients' numbers in
+        // place of its derivatives (the same sums below; P2G's frame of the point in slot k).
+        double b[D], r[D], dv[D][S];
+        for (int d = 0; d < D; ++d) b[d] = a.offset[d][k], r[d] = a.scale[d][k];
+        affineGradients(st, b, r, g.h, dv);
+        scatterForce<withGravity>(a, p, st, dv, vs, gravity);
+    } else {
+        scatterForce<withGravity>(a, p, st, st.dw, vs, gravity);
     }
+}
+
+template <int D, class K>
+template <bool withGravity>
+EMP_ALWAYS_INLINE void Solver<D, K>::scatterForce(const PassArrays& a, int p, const St& st, const double (*dv)[S], const Mat<D>& vs,
+                                                   const Vec<D>& gravity)
+{
+    const auto& g = grid_;
+    const auto& P = a.P;
     if (st.regular()) {  // (the same sums by rows: Stencil::forEachRowProjected)
         const Vec<D> fb = withGravity ? Vec<D>(P.mass(p) * gravity) : Vec<D>::Zero();
-        st.forEachRowProjected(g, vs, [&](int I0, const double* N, const double* t) EMP_LAMBDA_INLINE {
+        st.forEachRowProjected(g, vs, dv, [&](int I0, const double* N, const double* t) EMP_LAMBDA_INLINE {
             double* f = a.force[I0].data();
             for (int e = 0; e < S * D; ++e) {
                 if constexpr (withGravity)
@@ -942,9 +941,9 @@ EMP_ALWAYS_INLINE void Solver<D, K>::scatterInternalForce(const PassArrays& a, i
     }
     if constexpr (withGravity) {
         const Vec<D> fb = P.mass(p) * gravity;
-        st.forEachProjected(g, vs, [&](int I, double N, const Vec<D>& vsGrad) { a.force[I] += N * fb - vsGrad; });
+        st.forEachProjected(g, vs, dv, [&](int I, double N, const Vec<D>& vsGrad) { a.force[I] += N * fb - vsGrad; });
     } else {
-        st.forEachProjected(g, vs, [&](int I, double, const Vec<D>& vsGrad) { a.force[I] -= vsGrad; });
+        st.forEachProjected(g, vs, dv, [&](int I, double, const Vec<D>& vsGrad) { a.force[I] -= vsGrad; });
     }
 }
 
@@ -1067,14 +1066,16 @@ template <int D, class K> void Solver<D, K>::erode(double dt, int nThreads)
         // sigma- now (c = 0; the co-rotational update's rotated back), less the stress the force used
         const Mat<D> dvs = volume * (points_.stressOf(p, materials_) - before[e]);
         const std::int64_t id = dist_ ? points_.globalId[p] : p;
+        const auto correct = [&](const double (*dv)[S]) {
+            st.forEachProjected(g, dvs, dv, [&](int I, double, const Vec<D>& dvsGrad) { addNodeForce(I, -dvsGrad, 0, id); });
+        };
         if (deformationInG2P()) {  // (the pass's affine force: scatterInternalForce)
             const typename St::AffineFrame f = st.affineFrame(points_.x[p], g);
-            double u[D][S];
-            for (int d = 0; d < D; ++d)
-                for (int i = 0; i < S; ++i) u[d][i] = f.b[d] + i;
-            st.forEachAffine(g, u, Vec<D>::Zero(), affineForce(dvs, f.r), [&](int I, double N, const Vec<D>& m) { addNodeForce(I, -N * m, 0, id); });
+            double dv[D][S];
+            affineGradients(st, f.b, f.r, g.h, dv);
+            correct(dv);
         } else {
-            st.forEachProjected(g, dvs, [&](int I, double, const Vec<D>& dvsGrad) { addNodeForce(I, -dvsGrad, 0, id); });
+            correct(st.dw);
         }
     }
 }

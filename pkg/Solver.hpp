@@ -232,7 +232,7 @@ public:
     /// summed; Kinematics.hpp) and the stress pass takes F as it is, without velocity gradients. After a
     /// step, F (so stressOf and strainOf) is then that of the state the step reached, the one the next
     /// step's forces start from. The internal force is then the transpose of that update
-    /// (affineForce).
+    /// (affineGradients).
     bool deformationInG2P() const
     {
         return settings_.transfer == Transfer::apic && settings_.stressUpdate == StressUpdate::corotational;
@@ -352,25 +352,33 @@ private:
     /// f_I += N_I m_p b - V sigma_p grad N_I for the point in slot k (sigma_p: the law's in this
     /// pass); V is the current volume J V_p with the co-rotational update (J: det F from
     /// corotationalOfRun), else V_p (J unused). `affine` (APIC with the co-rotational update,
-    /// deformationInG2P): f_I += N_I (m_p b - V sigma_p D_p^-1 (x_I - x_p)) instead (affineForce).
+    /// deformationInG2P): f_I += N_I m_p b - V sigma_p D_p^-1 (x_I - x_p) N_I instead (affineGradients).
     template <bool withGravity, bool corotational, bool affine>
     void scatterInternalForce(const PassArrays& a, int k, const PointTensor<D>& sigma, const Vec<D>& gravity, double J);
-    /// The internal force's matrix where G2P moves F (deformationInG2P): for the point's stress
-    /// times volume vs and its frame's r (r[d] = 1 / (h du_d), Stencil::affineFrameAlong),
-    /// M = vs diag(r), so that node I, at u_I = (x_I - x_p) / h in cells, gets -N_I M u_I =
-    /// -N_I V sigma D_p^-1 (x_I - x_p). Its power on any nodal velocities v_I is -V sigma : C_p
-    /// with G2P's C_p = sum_I N_I v_I (x_I - x_p)^T D_p^-1: the force and the update of F are one
+    /// f_I += N_I m_p b - vs g_I for point p with stencil st (vs: its stress times volume;
+    /// scatterInternalForce), g_I = grad N_I with dv = st.dw, else the vectors of dv in place of
+    /// the derivatives (affineGradients; Stencil::forEachProjected).
+    template <bool withGravity>
+    void scatterForce(const PassArrays& a, int p, const St& st, const double (*dv)[S], const Mat<D>& vs, const Vec<D>& gravity);
+    /// The internal force where G2P moves F (deformationInG2P) is -V sigma D_p^-1 (x_I - x_p) N_I
+    /// instead of -V sigma grad N_I. Its power on any nodal velocities v_I is -V sigma : C_p with
+    /// G2P's C_p = sum_I N_I v_I (x_I - x_p)^T D_p^-1: the force and the update of F are one
     /// operator and its transpose (as MLS-MPM's, Hu et al. 2018), so the stress does work only
-    /// through the deformation it follows. (With -V sigma grad N_I instead, the velocity modes
-    /// the affine fit does not see were pushed by a stress they did not strain: John-Shah's beam
-    /// at the paper's resolution eroded some 15 000 points after its notch crack started;
-    /// doc/stability.md.) Where r[d] = 0 (no moment along d: Stencil::affineFrameAlong), the
-    /// stress's column d gives no force, as C_p's column d is 0 there.
-    static Mat<D> affineForce(const Mat<D>& vs, const double* r)
+    /// through the deformation it follows. (With -V sigma grad N_I, the velocity modes the affine
+    /// fit does not see were pushed by stresses they did not strain: John-Shah's beam at the
+    /// paper's resolution eroded some 15 000 points after its notch crack started;
+    /// doc/stability.md.) D_p^-1 (x_I - x_p) N_I is separable as grad N_I is: its component d is
+    /// r_d (b_d + i_d) w_d(i_d) times the other directions' weights, for node I at i_d along d,
+    /// with the point's frame b_d (the first node's offset in cells) and r_d = 1 / (h du_d)
+    /// (Stencil::affineFrameAlong; 0 where there is no moment along d, as C_p's column d is 0
+    /// there). So dv[d][i] = h r_d (b_d + i) w[d][i] in place of st's derivatives dw gives those
+    /// vectors (dv / h times the other weights: Stencil::forEachProjected, forEachRowProjected).
+    static void affineGradients(const St& st, const double* b, const double* r, double h, double (*dv)[S])
     {
-        Mat<D> M;
-        for (int d = 0; d < D; ++d) M.col(d) = r[d] * vs.col(d);
-        return M;
+        for (int d = 0; d < D; ++d) {
+            const double rh = r[d] * h;
+            for (int i = 0; i < S; ++i) dv[d][i] = rh * (b[d] + i) * st.w[d][i];
+        }
     }
     /// The stencil of one point computed on its own (serial stages: erosion, tractions).
     St stencilOf(int p);

@@ -698,22 +698,29 @@ template <int D, class K> struct Stencil {
     /// multiplications of forming grad N and then M grad N.
     template <class F> EMP_ALWAYS_INLINE void forEachProjected(const Grid<D>& g, const Mat<D>& M, F&& f) const
     {
+        forEachProjected(g, M, dw, std::forward<F>(f));
+    }
+    /// The same with dv in place of the derivatives dw: f(I, N, M g_I) with g_I's component d
+    /// dv[d][i_d] / h times the other directions' weights (Solver::affineGradients).
+    template <class F>
+    EMP_ALWAYS_INLINE void forEachProjected(const Grid<D>& g, const Mat<D>& M, const double (*dv)[S], F&& f) const
+    {
         int node[NS];
         nodes(g, node);
         Vec<D> a[S], b[S];
         for (int i = 0; i < S; ++i) {
-            a[i] = (dw[0][i] * g.invh) * M.col(0);
+            a[i] = (dv[0][i] * g.invh) * M.col(0);
             b[i] = (w[0][i] * g.invh) * M.col(1);
         }
         if constexpr (D == 2) {
             for (int j = 0; j < S; ++j)
-                for (int i = 0; i < S; ++i) f(node[i + S * j], w[0][i] * w[1][j], Vec<2>(w[1][j] * a[i] + dw[1][j] * b[i]));
+                for (int i = 0; i < S; ++i) f(node[i + S * j], w[0][i] * w[1][j], Vec<2>(w[1][j] * a[i] + dv[1][j] * b[i]));
         } else {
             Vec<3> c[S];
             for (int i = 0; i < S; ++i) c[i] = (w[0][i] * g.invh) * M.col(2);
             for (int k = 0; k < S; ++k)
                 for (int j = 0; j < S; ++j) {
-                    const double p = w[1][j] * w[2][k], q = dw[1][j] * w[2][k], r = w[1][j] * dw[2][k];
+                    const double p = w[1][j] * w[2][k], q = dv[1][j] * w[2][k], r = w[1][j] * dv[2][k];
                     for (int i = 0; i < S; ++i)
                         f(node[i + S * (j + S * k)], w[0][i] * p, Vec<3>(p * a[i] + q * b[i] + r * c[i]));
                 }
@@ -924,10 +931,16 @@ template <int D, class K> struct Stencil {
     /// forEachProjected by rows: row(first node, N, t) with t the row's M grad N.
     template <class Row> EMP_ALWAYS_INLINE void forEachRowProjected(const Grid<D>& g, const Mat<D>& M, Row&& row) const
     {
+        forEachRowProjected(g, M, dw, std::forward<Row>(row));
+    }
+    /// The same with dv in place of the derivatives dw (as forEachProjected's).
+    template <class Row>
+    EMP_ALWAYS_INLINE void forEachRowProjected(const Grid<D>& g, const Mat<D>& M, const double (*dv)[S], Row&& row) const
+    {
         constexpr int E = S * D;
         double a[E], b[E], c[D == 3 ? E : 1], N[S], t[E];
         for (int i = 0; i < S; ++i) {
-            const double da = dw[0][i] * g.invh, wb = w[0][i] * g.invh;
+            const double da = dv[0][i] * g.invh, wb = w[0][i] * g.invh;
             for (int d = 0; d < D; ++d) {
                 a[i * D + d] = da * M(d, 0);
                 b[i * D + d] = wb * M(d, 1);
@@ -937,7 +950,7 @@ template <int D, class K> struct Stencil {
         if constexpr (D == 2) {
 #pragma GCC unroll 4
             for (int j = 0; j < S; ++j) {
-                const double p = w[1][j], q = dw[1][j];
+                const double p = w[1][j], q = dv[1][j];
                 for (int i = 0; i < S; ++i) N[i] = w[0][i] * p;
                 for (int e = 0; e < E; ++e) t[e] = p * a[e] + q * b[e];
                 row(rowStart(g, j), N, t);
@@ -947,7 +960,7 @@ template <int D, class K> struct Stencil {
             for (int k = 0; k < S; ++k)
 #pragma GCC unroll 4
                 for (int j = 0; j < S; ++j) {
-                    const double p = w[1][j] * w[2][k], q = dw[1][j] * w[2][k], r = w[1][j] * dw[2][k];
+                    const double p = w[1][j] * w[2][k], q = dv[1][j] * w[2][k], r = w[1][j] * dv[2][k];
                     for (int i = 0; i < S; ++i) N[i] = w[0][i] * p;
                     for (int e = 0; e < E; ++e) t[e] = p * a[e] + q * b[e] + r * c[e];
                     row(rowStart(g, j, k), N, t);
@@ -955,16 +968,15 @@ template <int D, class K> struct Stencil {
         }
     }
 
-    /// forEachAffine by rows, with M = m C: row(first node, N, Nt) with Nt the row's
+    /// 2D: forEachAffine by rows, with M = m C: row(first node, N, Nt) with Nt the row's
     /// N_I (a + M (x_I - x_p)), node by node (S x D numbers: the same operations as
-    /// forEachAffine's, in the same order). 2D APIC's P2G (a = m v, m the point's mass) and, in 2D
-    /// and 3D, the internal force of APIC with the co-rotational update (a = m_p b, m = -1, C =
-    /// V_0 tau D_p^-1: Solver::scatterInternalForce). (M is formed here, column by column: as an
-    /// Eigen temporary it went through the stack, and reading it back waited on the stores.)
+    /// forEachAffine's, in the same order). (M is formed here, column by column: as an Eigen
+    /// temporary it went through the stack, and reading it back waited on the stores.)
     template <class Row>
     EMP_ALWAYS_INLINE void forEachRowAffine(const Grid<D>& g, const double (*o)[S], const Vec<D>& a, double m,
                                             const Mat<D>& C, Row&& row) const
     {
+        static_assert(D == 2, "3D: scatterRowsAffineOf");
         constexpr int E = S * D;
         double N[S];
         alignas(32) double Nt[E];
@@ -972,27 +984,12 @@ template <int D, class K> struct Stencil {
         double x[E];
         for (int i = 0; i < S; ++i)
             for (int d = 0; d < D; ++d) x[i * D + d] = o[0][i] * M(d, 0);
-        if constexpr (D == 2) {
 #pragma GCC unroll 4
-            for (int j = 0; j < S; ++j) {
-                const Vec<2> r = a + o[1][j] * M.col(1);
-                for (int i = 0; i < S; ++i) N[i] = w[0][i] * w[1][j];
-                for (int e = 0; e < E; ++e) Nt[e] = N[e / D] * (r[e % D] + x[e]);
-                row(rowStart(g, j), N, Nt);
-            }
-        } else {
-#pragma GCC unroll 4
-            for (int k = 0; k < S; ++k) {
-                const Vec<3> q = a + o[2][k] * M.col(2);
-#pragma GCC unroll 4
-                for (int j = 0; j < S; ++j) {
-                    const double wjk = w[1][j] * w[2][k];
-                    const Vec<3> r = q + o[1][j] * M.col(1);
-                    for (int i = 0; i < S; ++i) N[i] = w[0][i] * wjk;
-                    for (int e = 0; e < E; ++e) Nt[e] = N[e / D] * (r[e % D] + x[e]);
-                    row(rowStart(g, j, k), N, Nt);
-                }
-            }
+        for (int j = 0; j < S; ++j) {
+            const Vec<2> r = a + o[1][j] * M.col(1);
+            for (int i = 0; i < S; ++i) N[i] = w[0][i] * w[1][j];
+            for (int e = 0; e < E; ++e) Nt[e] = N[e / D] * (r[e % D] + x[e]);
+            row(rowStart(g, j), N, Nt);
         }
     }
 
