@@ -10,10 +10,10 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 STANDARD = {"wall_time_s", "particles", "steps", "particle_steps_per_s", "dissipated_energy_J"}
 
 
-def run(script, out, *params):
+def run(script, out, *params, quick=True):
     env = dict(os.environ, PYTHONPATH=os.path.join(ROOT, "build", "python"))
-    res = subprocess.run(["yade", "-n", "-x", os.path.join(ROOT, "examples", script), "--quick", "--out", str(out),
-                          *params], env=env, capture_output=True, text=True, timeout=300)
+    res = subprocess.run(["yade", "-n", "-x", os.path.join(ROOT, "examples", script), *(["--quick"] if quick else []),
+                          "--out", str(out), *params], env=env, capture_output=True, text=True, timeout=300)
     assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
     return json.load(open(out / "summary.json"))
 
@@ -127,3 +127,16 @@ def test_crack_branching_quick_energy_balance_with_apic_and_corotational(tmp_pat
     b0 = float(rows[1].split(",")[5])
     assert max(abs(r[5] - b0) for r in before) < 0.01 * before[-1][4]  # the scheme's own error: small
     assert (tmp_path / "energy.png").stat().st_size > 10000
+
+
+def test_john_shah_with_apic_and_corotational_grows_one_notch_crack_at_half_the_quick_spacing(tmp_path):
+    # With F updated in G2P, the internal force must be that update's transpose (doc/stability.md):
+    # session 48's grad-N force eroded points away from the crack once it ran, 15 149 at the
+    # paper's h = 0.635 mm and, at h = 1.27 mm (this run), 84 of 538 (the quick h = 2.54 mm shows
+    # nothing). Measured with the affine force (session 49): notch at 1469.1 us, 258.5 N, 443
+    # notch-crack points, none elsewhere, 23 s on one thread.
+    s = run("john_shah.py", tmp_path, "h_mm=1.27", "dt_us=0.3", "gamma=0.5", "vtkPeriod_us=100000",
+            "transfer=APIC", "stressUpdate=corotational", quick=False)
+    assert s["crack_origin"] == "notch" and 1300 < s["notch_initiation_time_us"] < 1600
+    assert s["notch_crack_points"] > 300 and s["crack_top_fraction"] >= 0.9
+    assert s["eroded_elsewhere"] <= 10
