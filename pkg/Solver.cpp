@@ -1066,17 +1066,14 @@ template <int D, class K> void Solver<D, K>::erode(double dt, int nThreads)
         // sigma- now (c = 0; the co-rotational update's rotated back), less the stress the force used
         const Mat<D> dvs = volume * (points_.stressOf(p, materials_) - before[e]);
         const std::int64_t id = dist_ ? points_.globalId[p] : p;
-        const auto correct = [&](const double (*dv)[S]) {
-            st.forEachProjected(g, dvs, dv, [&](int I, double, const Vec<D>& dvsGrad) { addNodeForce(I, -dvsGrad, 0, id); });
-        };
+        double affine[D][S];
+        const double(*dv)[S] = st.dw;
         if (deformationInG2P()) {  // (the pass's affine force: scatterInternalForce)
             const typename St::AffineFrame f = st.affineFrame(points_.x[p], g);
-            double dv[D][S];
-            affineGradients(st, f.b, f.r, g.h, dv);
-            correct(dv);
-        } else {
-            correct(st.dw);
+            affineGradients(st, f.b, f.r, g.h, affine);
+            dv = affine;
         }
+        st.forEachProjected(g, dvs, dv, [&](int I, double, const Vec<D>& dvsGrad) { addNodeForce(I, -dvsGrad, 0, id); });
     }
 }
 
