@@ -35,6 +35,10 @@ template <int D> std::string str(const Vec<D>& v)
 // pass over the points (they are separate functions, fused in the pass because the stencil is
 // then read once: measured in bench/bench_block); erosion corrects the force it already
 // scattered for the points it erodes.
+// With APIC and the co-rotational update together (deformationInG2P), G2P of the last step has
+// moved F already, so the stresses are known before P2G: they are made first (stressBeforeTransfer),
+// erosion follows, and P2G scatters the internal and body forces with the mass and momentum, through
+// the same affine sums (MLS-MPM's fused transfer, Hu et al. 2018): one scatter a step instead of two.
 // =============================================================================================
 template <int D, class K> void Solver<D, K>::step(double dt, int nThreads)
 {
@@ -44,14 +48,21 @@ template <int D, class K> void Solver<D, K>::step(double dt, int nThreads)
     schedulePoints(nThreads);              // binning and colouring (Scheduler)
     markCrackedNodes();                    // phantom nodes for the cracks' position (3.3.1)
     markBodyNodes();                       //     or a field per body where bodies meet
+    const bool fused = deformationInG2P();
+    if (fused) {
+        stressBeforeTransfer(dt, nThreads);// (3) with APIC + co-rotational: the stresses from F
+        erode(dt, nThreads);               // (4) eigenerosion, Eqs 23-24, 33, before the force
+    }
     clearGrid(nThreads);
-    particleToGrid(nThreads);              // (1) nodal mass and momentum, Eqs 12, 25
+    particleToGrid(nThreads);              // (1) nodal mass and momentum, Eqs 12, 25 (fused: and (5))
     bodyGradients();                       //     the bodies' normals at the nodes they share
     nodalVelocity(nThreads);               // (2) nodal velocity, Eq 26
     applyConditionsAfterVelocity(dt);      //     essential conditions (GridCondition)
-    stressAndInternalForce(dt, nThreads);  // (3) strain increment, split, history, Eqs 27, 2-7, 21-22
-                                           // (5) internal and body force, Eqs 13-14
-    erode(dt, nThreads);                   // (4) eigenerosion, Eqs 23-24, 33
+    if (!fused) {
+        stressAndInternalForce(dt, nThreads);  // (3) strain increment, split, history, Eqs 27, 2-7, 21-22
+                                               // (5) internal and body force, Eqs 13-14
+        erode(dt, nThreads);                   // (4) eigenerosion, Eqs 23-24, 33
+    }
     tractionForces();                      // (5) traction, Eq 28
     if (dist_) dist_->applyRecords(recordsLeft_, recordsRight_, {grid_.force.data()->data(), D});
     applyConditionsAfterForces(dt);        //     conditions on the forces, reactions
@@ -194,7 +205,15 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
     // are forced inline into the Scheduler's loop: GCC kept APIC's out of line, which cost 2D
     // APIC 9 % more instructions.
     // `frame` is the point's APIC frame when its run computed it (inRuns), or null.
-    const auto body = [&](auto apic, auto computed) {
+    // With APIC + co-rotational (`force`: deformationInG2P), the point's internal and body
+    // forces too: f_I += N_I (m_p b - V sigma_p D_p^-1 (x_I - x_p)), the stress and current
+    // volume of stressBeforeTransfer. That is an affine field in the same cell offsets u as the
+    // momentum's: N_I (m_p b + G u) with G = -V sigma h diag(r) / h = -V sigma diag(r), r = 1 / (h du)
+    // from the point's frame (0 where du is not positive). Its power on any nodal velocities is
+    // -V sigma : C_p with G2P's C_p: the force is the transpose of G2P's update of F
+    // (Kinematics.hpp).
+    const Vec<D> gravity = settings_.gravity.head<D>();
+    const auto body = [&](auto apic, auto computed, auto force) {
         return [&](const PassArrays& A, int k, const typename St::AffineFrame* frame) EMP_LAMBDA_INLINE {
             const auto& P = A.P;
             const int p = A.order[k];
@@ -253,6 +272,13 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
                 Mat<D>& Cu = P.affineVelocity[p];
                 typename Lane3::V c[3];  // (3D: Cu's columns, for scatterRowsAffineOf)
                 St::scaleAffine(Cu, f.r, c);
+                Vec<D> fb;
+                Mat<D> G;
+                if constexpr (decltype(force)::value) {
+                    fb = mp * gravity;  // (0 + x is x: no separate form without gravity)
+                    const Mat<D> vs = slotVolume_[k] * full(slotStress_[k]);
+                    for (int d = 0; d < D; ++d) G.col(d) = -f.r[d] * vs.col(d);
+                }
                 if (st.regular()) {
                     if constexpr (W > 0) {
                         st.scatterRowsAffineOf(g, u, mv, mp, c, sums);
@@ -264,15 +290,26 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
                             for (int e = 0; e < S * D; ++e) q[e] += Nt[e];
                         });
                     }
+                    // The force in a second sum of the same form (one sum of both fields, sharing
+                    // the rows' weights, was 2 % fewer instructions but 8 % slower in 2D:
+                    // doc/performance.md, "Session 50").
+                    if constexpr (decltype(force)::value)
+                        st.forEachRowAffine(g, u, fb, 1.0, G, [&](int I0, const double*, const double* Nt) EMP_LAMBDA_INLINE {
+                            double* t = A.force[I0].data();
+                            for (int e = 0; e < S * D; ++e) t[e] += Nt[e];
+                        });
                     return;
                 }
                 st.forEachAffine(g, u, mv, Mat<D>(mp * Cu), [&](int I, double N, const Vec<D>& m) { add(I, N * mp, N * m); });
+                if constexpr (decltype(force)::value)
+                    st.forEachAffine(g, u, fb, G, [&](int I, double N, const Vec<D>& t) { A.force[I] += N * t; });
             }
         };
     };
-    const std::vector<NodeField> fields = Grid<D>::sumsWidth > 0
-                                              ? std::vector<NodeField>{{g.massMomentum.data(), Grid<D>::sumsWidth}}
-                                              : std::vector<NodeField>{{g.mass.data(), 1}, {g.momentum.data()->data(), D}};
+    std::vector<NodeField> fields = Grid<D>::sumsWidth > 0
+                                        ? std::vector<NodeField>{{g.massMomentum.data(), Grid<D>::sumsWidth}}
+                                        : std::vector<NodeField>{{g.mass.data(), 1}, {g.momentum.data()->data(), D}};
+    if (deformationInG2P()) fields.push_back({g.force.data()->data(), D});
     std::function<void(int)> between;
     if (dist_) between = [&](int k) { dist_->afterPhase(k, schedule_.numPhases(), g, fields); };
     // With vectors wider than the baseline's (pkg/Lanes.hpp), the stencils of a run of points
@@ -283,8 +320,8 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
     // test for it (Scheduler::slotsReaching: bin's strips are of the base nodes computeRun finds).
     const std::pair<int, int> nearSlots = mapping ? schedule_.template slotsReaching<K>(markedLo_[D - 1], markedHi_[D - 1])
                                                   : std::pair<int, int>{0, 0};
-    const auto inRuns = [&](auto apic) {
-        const auto point = body(apic, std::true_type{});
+    const auto inRuns = [&](auto apic, auto force) {
+        const auto point = body(apic, std::true_type{}, force);
         return [&, point](int begin, int end) EMP_LAMBDA_INLINE {
             const auto& order = schedule_.order();
             const auto x = [&](int i) -> const Vec<D>& { return points_.x[order[begin + i]]; };
@@ -319,16 +356,18 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
             });
         };
     };
-    const auto scatter = [&](auto apic) {
+    const auto scatter = [&](auto apic, auto force) {
         if constexpr (K::laneEvaluation)
-            if (laneIsa() != LaneIsa::baseline) return schedule_.scatterRuns(nThreads, stencilRun, inRuns(apic), between);
-        const auto point = body(apic, std::false_type{});
+            if (laneIsa() != LaneIsa::baseline) return schedule_.scatterRuns(nThreads, stencilRun, inRuns(apic, force), between);
+        const auto point = body(apic, std::false_type{}, force);
         schedule_.scatter(nThreads, [&](int k) EMP_LAMBDA_INLINE { point(passArrays(), k, nullptr); }, between);
     };
-    if (settings_.transfer == Transfer::apic)
-        scatter(std::true_type{});
+    if (deformationInG2P())
+        scatter(std::true_type{}, std::true_type{});
+    else if (settings_.transfer == Transfer::apic)
+        scatter(std::true_type{}, std::false_type{});
     else
-        scatter(std::false_type{});
+        scatter(std::false_type{}, std::false_type{});
     if (dist_) dist_->finishScatter(g, fields);
 }
 
@@ -893,42 +932,30 @@ EMP_NOINLINE void Solver<D, K>::corotationalOfRun3(const int* ids, const St* st,
 }
 
 template <int D, class K>
-template <bool withGravity, bool corotational, bool affine>
+template <bool withGravity, bool corotational>
 EMP_ALWAYS_INLINE void Solver<D, K>::scatterInternalForce(const PassArrays& a, int k, const PointTensor<D>& sigma,
                                                            const Vec<D>& gravity, double J)
 {
     // f_I += N_I m_p b - V_p sigma_p grad N_I (Eqs 13-14). Without gravity the body force term
     // is left out (the same sums: f + (0 - x) is f - x in floating point). The co-rotational
     // update's volume is the current one, J V_p (V_p sigma = V_0 tau, Kinematics.hpp).
-    const auto& g = grid_;
     const auto& P = a.P;
     const int p = a.order[k];
     const St& st = a.stencil[k];
     const double volume = corotational ? P.volume[p] * J : P.volume[p];
     const Mat<D> vs = volume * full(sigma);
-    if constexpr (affine) {
-        // APIC with the co-rotational update (deformationInG2P): -V sigma D_p^-1 (x_I - x_p) N_I
-        // in place of -V sigma grad N_I, through the stencil with affineGradients' numbers in
-        // place of its derivatives (the same sums below; P2G's frame of the point in slot k).
-        double b[D], r[D], dv[D][S];
-        for (int d = 0; d < D; ++d) b[d] = a.offset[d][k], r[d] = a.scale[d][k];
-        affineGradients(st, b, r, g.h, dv);
-        scatterForce<withGravity>(a, p, st, dv, vs, gravity);
-    } else {
-        scatterForce<withGravity>(a, p, st, st.dw, vs, gravity);
-    }
+    scatterForce<withGravity>(a, p, st, vs, gravity);
 }
 
 template <int D, class K>
 template <bool withGravity>
-EMP_ALWAYS_INLINE void Solver<D, K>::scatterForce(const PassArrays& a, int p, const St& st, const double (*dv)[S], const Mat<D>& vs,
-                                                   const Vec<D>& gravity)
+EMP_ALWAYS_INLINE void Solver<D, K>::scatterForce(const PassArrays& a, int p, const St& st, const Mat<D>& vs, const Vec<D>& gravity)
 {
     const auto& g = grid_;
     const auto& P = a.P;
     if (st.regular()) {  // (the same sums by rows: Stencil::forEachRowProjected)
         const Vec<D> fb = withGravity ? Vec<D>(P.mass(p) * gravity) : Vec<D>::Zero();
-        st.forEachRowProjected(g, vs, dv, [&](int I0, const double* N, const double* t) EMP_LAMBDA_INLINE {
+        st.forEachRowProjected(g, vs, [&](int I0, const double* N, const double* t) EMP_LAMBDA_INLINE {
             double* f = a.force[I0].data();
             for (int e = 0; e < S * D; ++e) {
                 if constexpr (withGravity)
@@ -941,9 +968,9 @@ EMP_ALWAYS_INLINE void Solver<D, K>::scatterForce(const PassArrays& a, int p, co
     }
     if constexpr (withGravity) {
         const Vec<D> fb = P.mass(p) * gravity;
-        st.forEachProjected(g, vs, dv, [&](int I, double N, const Vec<D>& vsGrad) { a.force[I] += N * fb - vsGrad; });
+        st.forEachProjected(g, vs, [&](int I, double N, const Vec<D>& vsGrad) { a.force[I] += N * fb - vsGrad; });
     } else {
-        st.forEachProjected(g, vs, dv, [&](int I, double, const Vec<D>& vsGrad) { a.force[I] -= vsGrad; });
+        st.forEachProjected(g, vs, [&](int I, double, const Vec<D>& vsGrad) { a.force[I] -= vsGrad; });
     }
 }
 
@@ -958,7 +985,7 @@ template <int D, class K> void Solver<D, K>::stressAndInternalForce(double dt, i
     const std::vector<NodeField> fields{{grid_.force.data()->data(), D}};
     std::function<void(int)> between;
     if (dist_) between = [&](int k) { dist_->afterPhase(k, schedule_.numPhases(), grid_, fields); };
-    const auto pass = [&](auto withGravity, auto corotational, auto affine) {
+    const auto pass = [&](auto withGravity, auto corotational) {
         // A run's update (its strains and law, or the co-rotational update) runs before the
         // forces of the run before it: the update's lanes wait on long chains of divisions and
         // square roots, and the previous run's scatter, which does not need their results, fills
@@ -975,18 +1002,13 @@ template <int D, class K> void Solver<D, K>::stressAndInternalForce(double dt, i
                 withLaneIsa(strains);  // (the gradients' 4-lane sums in the lanes' width)
                 lawOfRun(&order[begin], end - begin, sigma);
             }
-            // The run's stresses checked: their sum is finite unless one is not (G2P's check
-            // reports the point).
-            double sum = 0;
-            for (int i = 0; i < end - begin; ++i) sum += sumOf(sigma[i]);
-            if (!std::isfinite(sum)) __atomic_store_n(&stressNonFinite_, 1, __ATOMIC_RELAXED);
-            if (stressObserver_) stressObserver_(&order[begin], end - begin, sigma);
+            checkStresses(&order[begin], end - begin, sigma);
         };
         const auto forces = [&](int begin, int end, const double* J, const PointTensor<D>* sigma) EMP_LAMBDA_INLINE {
             withLaneIsa([&]() EMP_LAMBDA_INLINE {  // (the rows' loops in the lanes' width)
                 const PassArrays a = passArrays();
                 for (int k = begin; k < end; ++k)
-                    scatterInternalForce<decltype(withGravity)::value, decltype(corotational)::value, decltype(affine)::value>(
+                    scatterInternalForce<decltype(withGravity)::value, decltype(corotational)::value>(
                         a, k, sigma[k - begin], gravity, decltype(corotational)::value ? J[k - begin] : 0.0);
             });
         };
@@ -1002,22 +1024,62 @@ template <int D, class K> void Solver<D, K>::stressAndInternalForce(double dt, i
             if (previous >= 0) forces(previous, stripEnd, J[now ^ 1], sigma[now ^ 1]);
         }, between);
     };
+    startStressPass();
+    // Two forms: the small-strain update's and the co-rotational one's (the current volume).
+    // (With APIC too, the stresses are made before P2G, which scatters their force:
+    // stressBeforeTransfer.)
+    const auto withForm = [&](auto withGravity) {
+        if (settings_.stressUpdate == StressUpdate::corotational)
+            pass(withGravity, std::true_type{});
+        else
+            pass(withGravity, std::false_type{});
+    };
+    gravity.isZero(0.0) ? withForm(std::false_type{}) : withForm(std::true_type{});
+    if (dist_) dist_->finishScatter(grid_, fields);
+}
+
+template <int D, class K> void Solver<D, K>::startStressPass()
+{
     stressNonFinite_ = 0;
     stepLaw_ = materials_.empty() ? -1 : materials_[0].law;
     for (const ElasticMaterial& m : materials_)
         if (m.law != stepLaw_) stepLaw_ = -1;
-    // Three forms: the small-strain update's, the co-rotational one's (the current volume), and
-    // with APIC too the affine force (scatterInternalForce).
-    const auto withForm = [&](auto withGravity) {
-        if (deformationInG2P())
-            pass(withGravity, std::true_type{}, std::true_type{});
-        else if (settings_.stressUpdate == StressUpdate::corotational)
-            pass(withGravity, std::true_type{}, std::false_type{});
-        else
-            pass(withGravity, std::false_type{}, std::false_type{});
-    };
-    gravity.isZero(0.0) ? withForm(std::false_type{}) : withForm(std::true_type{});
-    if (dist_) dist_->finishScatter(grid_, fields);
+}
+
+template <int D, class K> void Solver<D, K>::checkStresses(const int* ids, int n, const PointTensor<D>* sigma)
+{
+    // A run's stresses checked: their sum is finite unless one is not (G2P's check reports the
+    // point).
+    double sum = 0;
+    for (int i = 0; i < n; ++i) sum += sumOf(sigma[i]);
+    if (!std::isfinite(sum)) __atomic_store_n(&stressNonFinite_, 1, __ATOMIC_RELAXED);
+    if (stressObserver_) stressObserver_(ids, n, sigma);
+}
+
+template <int D, class K> void Solver<D, K>::stressBeforeTransfer(double dt, int nThreads)
+{
+    // APIC with the co-rotational update (deformationInG2P): every point's stress from the F that
+    // G2P left (corotationalOfRun: polar decomposition, law, Cauchy stress), in runs of stressRun
+    // slots, and the current volume J V_0 with it (V sigma = V_0 tau, Kinematics.hpp), kept by slot
+    // for P2G, which scatters their force. Nothing here reads the grid; blocks of slots that do
+    // not depend on the thread count (Scheduler::gather).
+    startStressPass();
+    const auto& order = schedule_.order();
+    const std::size_t n = order.size();
+    slotStress_.resize(n);
+    slotVolume_.resize(n);
+    schedule_.gather(
+        nThreads, 0,
+        [&](int begin, int end, int&) {
+            for (int b = begin; b < end; b += stressRun) {
+                const int e = std::min(b + stressRun, end);
+                double* J = &slotVolume_[b];
+                corotationalOfRun(&order[b], &stencil_[b], e - b, dt, J, &slotStress_[b]);
+                for (int k = b; k < e; ++k) slotVolume_[k] = points_.volume[order[k]] * slotVolume_[k];
+                checkStresses(&order[b], e - b, &slotStress_[b]);
+            }
+        },
+        [](int&, int) {});
 }
 
 template <int D, class K> typename Solver<D, K>::St Solver<D, K>::stencilOf(int p)
@@ -1054,6 +1116,12 @@ template <int D, class K> void Solver<D, K>::erode(double dt, int nThreads)
                         dist_ ? &dist_->transport() : nullptr, &rows, &grid_) == 0)
         return;
     const auto& eroded = erosion_->lastEroded();
+    if (deformationInG2P()) {
+        // Before P2G (stressBeforeTransfer): the eroded points' stresses are replaced in their
+        // slots, and P2G scatters the force of the stresses as they now are.
+        for (const int p : eroded) slotStress_[schedule_.slotOf(p)] = PointTensor<D>(points_.stressOf(p, materials_));
+        return;
+    }
     const auto& before = erosion_->stressBeforeErosion();
     auto& g = grid_;
     const bool corotational = settings_.stressUpdate == StressUpdate::corotational;
@@ -1066,14 +1134,7 @@ template <int D, class K> void Solver<D, K>::erode(double dt, int nThreads)
         // sigma- now (c = 0; the co-rotational update's rotated back), less the stress the force used
         const Mat<D> dvs = volume * (points_.stressOf(p, materials_) - before[e]);
         const std::int64_t id = dist_ ? points_.globalId[p] : p;
-        double affine[D][S];
-        const double(*dv)[S] = st.dw;
-        if (deformationInG2P()) {  // (the pass's affine force: scatterInternalForce)
-            const typename St::AffineFrame f = st.affineFrame(points_.x[p], g);
-            affineGradients(st, f.b, f.r, g.h, affine);
-            dv = affine;
-        }
-        st.forEachProjected(g, dvs, dv, [&](int I, double, const Vec<D>& dvsGrad) { addNodeForce(I, -dvsGrad, 0, id); });
+        st.forEachProjected(g, dvs, [&](int I, double, const Vec<D>& dvsGrad) { addNodeForce(I, -dvsGrad, 0, id); });
     }
 }
 

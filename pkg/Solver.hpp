@@ -268,6 +268,12 @@ private:
     void nodalVelocity(int nThreads);
     void applyConditionsAfterVelocity(double dt);
     void stressAndInternalForce(double dt, int nThreads);
+    /// deformationInG2P: the stresses before P2G (slotStress_, slotVolume_), whose force P2G scatters.
+    void stressBeforeTransfer(double dt, int nThreads);
+    /// The stress passes' start: the check's flag cleared, stepLaw_ chosen.
+    void startStressPass();
+    /// A run's stresses checked (stressNonFinite_) and shown to the observer (observeStresses).
+    void checkStresses(const int* ids, int n, const PointTensor<D>* sigma);
     void erode(double dt, int nThreads);
     void tractionForces();
     void applyConditionsAfterForces(double dt);
@@ -351,35 +357,21 @@ private:
     template <class F> bool withSharedPointwiseLaw(const int* ids, int n, F&& f);
     /// f_I += N_I m_p b - V sigma_p grad N_I for the point in slot k (sigma_p: the law's in this
     /// pass); V is the current volume J V_p with the co-rotational update (J: det F from
-    /// corotationalOfRun), else V_p (J unused). `affine` (APIC with the co-rotational update,
-    /// deformationInG2P): f_I += N_I m_p b - V sigma_p D_p^-1 (x_I - x_p) N_I instead (affineGradients).
-    template <bool withGravity, bool corotational, bool affine>
+    /// corotationalOfRun), else V_p (J unused).
+    template <bool withGravity, bool corotational>
     void scatterInternalForce(const PassArrays& a, int k, const PointTensor<D>& sigma, const Vec<D>& gravity, double J);
-    /// f_I += N_I m_p b - vs g_I for point p with stencil st (vs: its stress times volume;
-    /// scatterInternalForce), g_I = grad N_I with dv = st.dw, else the vectors of dv in place of
-    /// the derivatives (affineGradients; Stencil::forEachProjected).
+    /// f_I += N_I m_p b - vs grad N_I for point p with stencil st (vs: its stress times volume;
+    /// scatterInternalForce; Stencil::forEachProjected).
     template <bool withGravity>
-    void scatterForce(const PassArrays& a, int p, const St& st, const double (*dv)[S], const Mat<D>& vs, const Vec<D>& gravity);
-    /// The internal force where G2P moves F (deformationInG2P) is -V sigma D_p^-1 (x_I - x_p) N_I
-    /// instead of -V sigma grad N_I. Its power on any nodal velocities v_I is -V sigma : C_p with
-    /// G2P's C_p = sum_I N_I v_I (x_I - x_p)^T D_p^-1: the force and the update of F are one
-    /// operator and its transpose (as MLS-MPM's, Hu et al. 2018), so the stress does work only
-    /// through the deformation it follows. (With -V sigma grad N_I, the velocity modes the affine
-    /// fit does not see were pushed by stresses they did not strain: John-Shah's beam at the
-    /// paper's resolution eroded some 15 000 points after its notch crack started;
-    /// doc/stability.md.) D_p^-1 (x_I - x_p) N_I is separable as grad N_I is: its component d is
-    /// r_d (b_d + i_d) w_d(i_d) times the other directions' weights, for node I at i_d along d,
-    /// with the point's frame b_d (the first node's offset in cells) and r_d = 1 / (h du_d)
-    /// (Stencil::affineFrameAlong; 0 where there is no moment along d, as C_p's column d is 0
-    /// there). So dv[d][i] = h r_d (b_d + i) w[d][i] in place of st's derivatives dw gives those
-    /// vectors (dv / h times the other weights: Stencil::forEachProjected, forEachRowProjected).
-    static void affineGradients(const St& st, const double* b, const double* r, double h, double (*dv)[S])
-    {
-        for (int d = 0; d < D; ++d) {
-            const double rh = r[d] * h;
-            for (int i = 0; i < S; ++i) dv[d][i] = rh * (b[d] + i) * st.w[d][i];
-        }
-    }
+    void scatterForce(const PassArrays& a, int p, const St& st, const Mat<D>& vs, const Vec<D>& gravity);
+    // The internal force where G2P moves F (deformationInG2P) is -V sigma D_p^-1 (x_I - x_p) N_I
+    // instead of -V sigma grad N_I, scattered by P2G (particleToGrid). Its power on any nodal
+    // velocities v_I is -V sigma : C_p with G2P's C_p = sum_I N_I v_I (x_I - x_p)^T D_p^-1: the
+    // force and the update of F are one operator and its transpose (as MLS-MPM's, Hu et al.
+    // 2018), so the stress does work only through the deformation it follows. (With -V sigma
+    // grad N_I, the velocity modes the affine fit does not see were pushed by stresses they did
+    // not strain: John-Shah's beam at the paper's resolution eroded some 15 000 points after its
+    // notch crack started; doc/stability.md.)
     /// The stencil of one point computed on its own (serial stages: erosion, tractions).
     St stencilOf(int p);
     /// Maps point p's support onto the twins of this step (across the cracks, or its body's)
@@ -458,6 +450,10 @@ private:
     /// co-rotational update too (deformationInG2P), the frames' r[d] follow, at
     /// offset_[(D + d) * n + k], for G2P's C_p.
     std::vector<double> offset_;
+    /// deformationInG2P: the stress and current volume J V_0 of the point in slot k
+    /// (stressBeforeTransfer, then erosion), for P2G's force; empty otherwise.
+    std::vector<PointTensor<D>> slotStress_;
+    std::vector<double> slotVolume_;
     std::shared_ptr<Distribution<D>> dist_;
     GhostPoints<D> ghosts_;
     std::vector<std::uint64_t> rowMarks_;  ///< Support::pointsInRows' bitmap by point id (zero between calls)

@@ -968,15 +968,16 @@ template <int D, class K> struct Stencil {
         }
     }
 
-    /// 2D: forEachAffine by rows, with M = m C: row(first node, N, Nt) with Nt the row's
+    /// forEachAffine by rows, with M = m C: row(first node, N, Nt) with Nt the row's
     /// N_I (a + M (x_I - x_p)), node by node (S x D numbers: the same operations as
     /// forEachAffine's, in the same order). (M is formed here, column by column: as an Eigen
-    /// temporary it went through the stack, and reading it back waited on the stores.)
+    /// temporary it went through the stack, and reading it back waited on the stores.) 3D:
+    /// APIC's momentum goes through scatterRowsAffineOf; this form scatters the force of APIC
+    /// with the co-rotational update (Solver::particleToGrid).
     template <class Row>
     EMP_ALWAYS_INLINE void forEachRowAffine(const Grid<D>& g, const double (*o)[S], const Vec<D>& a, double m,
                                             const Mat<D>& C, Row&& row) const
     {
-        static_assert(D == 2, "3D: scatterRowsAffineOf");
         constexpr int E = S * D;
         double N[S];
         alignas(32) double Nt[E];
@@ -984,12 +985,27 @@ template <int D, class K> struct Stencil {
         double x[E];
         for (int i = 0; i < S; ++i)
             for (int d = 0; d < D; ++d) x[i * D + d] = o[0][i] * M(d, 0);
+        if constexpr (D == 2) {
 #pragma GCC unroll 4
-        for (int j = 0; j < S; ++j) {
-            const Vec<2> r = a + o[1][j] * M.col(1);
-            for (int i = 0; i < S; ++i) N[i] = w[0][i] * w[1][j];
-            for (int e = 0; e < E; ++e) Nt[e] = N[e / D] * (r[e % D] + x[e]);
-            row(rowStart(g, j), N, Nt);
+            for (int j = 0; j < S; ++j) {
+                const Vec<2> r = a + o[1][j] * M.col(1);
+                for (int i = 0; i < S; ++i) N[i] = w[0][i] * w[1][j];
+                for (int e = 0; e < E; ++e) Nt[e] = N[e / D] * (r[e % D] + x[e]);
+                row(rowStart(g, j), N, Nt);
+            }
+        } else {
+#pragma GCC unroll 4
+            for (int k = 0; k < S; ++k) {
+                const Vec<3> q = a + o[2][k] * M.col(2);
+#pragma GCC unroll 4
+                for (int j = 0; j < S; ++j) {
+                    const double wjk = w[1][j] * w[2][k];
+                    const Vec<3> r = q + o[1][j] * M.col(1);
+                    for (int i = 0; i < S; ++i) N[i] = w[0][i] * wjk;
+                    for (int e = 0; e < E; ++e) Nt[e] = N[e / D] * (r[e % D] + x[e]);
+                    row(rowStart(g, j, k), N, Nt);
+                }
+            }
         }
     }
 
