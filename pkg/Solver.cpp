@@ -276,7 +276,7 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
                 Mat<D> G;
                 if constexpr (decltype(force)::value) {
                     fb = mp * gravity;  // (0 + x is x: no separate form without gravity)
-                    const Mat<D> vs = slotVolume_[k] * full(slotStress_[k]);
+                    const Mat<D> vs = slotTimesVolume(&slotStress_[static_cast<std::size_t>(k) * slotStride]);
                     for (int d = 0; d < D; ++d) G.col(d) = -f.r[d] * vs.col(d);
                 }
                 if (st.regular()) {
@@ -944,18 +944,19 @@ EMP_ALWAYS_INLINE void Solver<D, K>::scatterInternalForce(const PassArrays& a, i
     const St& st = a.stencil[k];
     const double volume = corotational ? P.volume[p] * J : P.volume[p];
     const Mat<D> vs = volume * full(sigma);
-    scatterForce<withGravity>(a, p, st, vs, gravity);
+    scatterForce<withGravity>(a, p, st, st.dw, vs, gravity);
 }
 
 template <int D, class K>
 template <bool withGravity>
-EMP_ALWAYS_INLINE void Solver<D, K>::scatterForce(const PassArrays& a, int p, const St& st, const Mat<D>& vs, const Vec<D>& gravity)
+EMP_ALWAYS_INLINE void Solver<D, K>::scatterForce(const PassArrays& a, int p, const St& st, const double (*dv)[S], const Mat<D>& vs,
+                                                   const Vec<D>& gravity)
 {
     const auto& g = grid_;
     const auto& P = a.P;
     if (st.regular()) {  // (the same sums by rows: Stencil::forEachRowProjected)
         const Vec<D> fb = withGravity ? Vec<D>(P.mass(p) * gravity) : Vec<D>::Zero();
-        st.forEachRowProjected(g, vs, [&](int I0, const double* N, const double* t) EMP_LAMBDA_INLINE {
+        st.forEachRowProjected(g, vs, dv, [&](int I0, const double* N, const double* t) EMP_LAMBDA_INLINE {
             double* f = a.force[I0].data();
             for (int e = 0; e < S * D; ++e) {
                 if constexpr (withGravity)
@@ -968,10 +969,29 @@ EMP_ALWAYS_INLINE void Solver<D, K>::scatterForce(const PassArrays& a, int p, co
     }
     if constexpr (withGravity) {
         const Vec<D> fb = P.mass(p) * gravity;
-        st.forEachProjected(g, vs, [&](int I, double N, const Vec<D>& vsGrad) { a.force[I] += N * fb - vsGrad; });
+        st.forEachProjected(g, vs, dv, [&](int I, double N, const Vec<D>& vsGrad) { a.force[I] += N * fb - vsGrad; });
     } else {
-        st.forEachProjected(g, vs, [&](int I, double, const Vec<D>& vsGrad) { a.force[I] -= vsGrad; });
+        st.forEachProjected(g, vs, dv, [&](int I, double, const Vec<D>& vsGrad) { a.force[I] -= vsGrad; });
     }
+}
+
+template <int D, class K> void Solver<D, K>::startStressPass()
+{
+    stressNonFinite_ = 0;
+    stepLaw_ = materials_.empty() ? -1 : materials_[0].law;
+    for (const ElasticMaterial& m : materials_)
+        if (m.law != stepLaw_) stepLaw_ = -1;
+}
+
+template <int D, class K>
+EMP_ALWAYS_INLINE void Solver<D, K>::checkStresses(const int* ids, int n, const PointTensor<D>* sigma)
+{
+    // A run's stresses checked: their sum is finite unless one is not (G2P's check reports the
+    // point).
+    double sum = 0;
+    for (int i = 0; i < n; ++i) sum += sumOf(sigma[i]);
+    if (!std::isfinite(sum)) __atomic_store_n(&stressNonFinite_, 1, __ATOMIC_RELAXED);
+    if (stressObserver_) stressObserver_(ids, n, sigma);
 }
 
 template <int D, class K> void Solver<D, K>::stressAndInternalForce(double dt, int nThreads)
@@ -1038,24 +1058,6 @@ template <int D, class K> void Solver<D, K>::stressAndInternalForce(double dt, i
     if (dist_) dist_->finishScatter(grid_, fields);
 }
 
-template <int D, class K> void Solver<D, K>::startStressPass()
-{
-    stressNonFinite_ = 0;
-    stepLaw_ = materials_.empty() ? -1 : materials_[0].law;
-    for (const ElasticMaterial& m : materials_)
-        if (m.law != stepLaw_) stepLaw_ = -1;
-}
-
-template <int D, class K> void Solver<D, K>::checkStresses(const int* ids, int n, const PointTensor<D>* sigma)
-{
-    // A run's stresses checked: their sum is finite unless one is not (G2P's check reports the
-    // point).
-    double sum = 0;
-    for (int i = 0; i < n; ++i) sum += sumOf(sigma[i]);
-    if (!std::isfinite(sum)) __atomic_store_n(&stressNonFinite_, 1, __ATOMIC_RELAXED);
-    if (stressObserver_) stressObserver_(ids, n, sigma);
-}
-
 template <int D, class K> void Solver<D, K>::stressBeforeTransfer(double dt, int nThreads)
 {
     // APIC with the co-rotational update (deformationInG2P): every point's stress from the F that
@@ -1066,17 +1068,18 @@ template <int D, class K> void Solver<D, K>::stressBeforeTransfer(double dt, int
     startStressPass();
     const auto& order = schedule_.order();
     const std::size_t n = order.size();
-    slotStress_.resize(n);
-    slotVolume_.resize(n);
+    slotStress_.resize(n * slotStride);
     schedule_.gather(
         nThreads, 0,
         [&](int begin, int end, int&) {
             for (int b = begin; b < end; b += stressRun) {
                 const int e = std::min(b + stressRun, end);
-                double* J = &slotVolume_[b];
-                corotationalOfRun(&order[b], &stencil_[b], e - b, dt, J, &slotStress_[b]);
-                for (int k = b; k < e; ++k) slotVolume_[k] = points_.volume[order[k]] * slotVolume_[k];
-                checkStresses(&order[b], e - b, &slotStress_[b]);
+                double J[stressRun];
+                PointTensor<D> sigma[stressRun];
+                corotationalOfRun(&order[b], &stencil_[b], e - b, dt, J, sigma);
+                checkStresses(&order[b], e - b, sigma);
+                for (int k = b; k < e; ++k)
+                    toSlot(sigma[k - b], points_.volume[order[k]] * J[k - b], &slotStress_[static_cast<std::size_t>(k) * slotStride]);
             }
         },
         [](int&, int) {});
@@ -1119,7 +1122,10 @@ template <int D, class K> void Solver<D, K>::erode(double dt, int nThreads)
     if (deformationInG2P()) {
         // Before P2G (stressBeforeTransfer): the eroded points' stresses are replaced in their
         // slots, and P2G scatters the force of the stresses as they now are.
-        for (const int p : eroded) slotStress_[schedule_.slotOf(p)] = PointTensor<D>(points_.stressOf(p, materials_));
+        for (const int p : eroded) {
+            double* slot = &slotStress_[static_cast<std::size_t>(schedule_.slotOf(p)) * slotStride];
+            toSlot(PointTensor<D>(points_.stressOf(p, materials_)), slot[slotStride - 1], slot);
+        }
         return;
     }
     const auto& before = erosion_->stressBeforeErosion();

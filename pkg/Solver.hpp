@@ -268,7 +268,7 @@ private:
     void nodalVelocity(int nThreads);
     void applyConditionsAfterVelocity(double dt);
     void stressAndInternalForce(double dt, int nThreads);
-    /// deformationInG2P: the stresses before P2G (slotStress_, slotVolume_), whose force P2G scatters.
+    /// deformationInG2P: the stresses before P2G (slotStress_), whose force P2G scatters.
     void stressBeforeTransfer(double dt, int nThreads);
     /// The stress passes' start: the check's flag cleared, stepLaw_ chosen.
     void startStressPass();
@@ -361,9 +361,10 @@ private:
     template <bool withGravity, bool corotational>
     void scatterInternalForce(const PassArrays& a, int k, const PointTensor<D>& sigma, const Vec<D>& gravity, double J);
     /// f_I += N_I m_p b - vs grad N_I for point p with stencil st (vs: its stress times volume;
-    /// scatterInternalForce; Stencil::forEachProjected).
+    /// scatterInternalForce; Stencil::forEachProjected), dv = st.dw. (Passed as an argument: read
+    /// as st.dw here, GCC made the 3D default force pass 21 instructions a point longer.)
     template <bool withGravity>
-    void scatterForce(const PassArrays& a, int p, const St& st, const Mat<D>& vs, const Vec<D>& gravity);
+    void scatterForce(const PassArrays& a, int p, const St& st, const double (*dv)[S], const Mat<D>& vs, const Vec<D>& gravity);
     // The internal force where G2P moves F (deformationInG2P) is -V sigma D_p^-1 (x_I - x_p) N_I
     // instead of -V sigma grad N_I, scattered by P2G (particleToGrid). Its power on any nodal
     // velocities v_I is -V sigma : C_p with G2P's C_p = sum_I N_I v_I (x_I - x_p)^T D_p^-1: the
@@ -452,8 +453,37 @@ private:
     std::vector<double> offset_;
     /// deformationInG2P: the stress and current volume J V_0 of the point in slot k
     /// (stressBeforeTransfer, then erosion), for P2G's force; empty otherwise.
-    std::vector<PointTensor<D>> slotStress_;
-    std::vector<double> slotVolume_;
+    /// slotStride numbers a slot: the stress's symmetric part (2D xx, xy, yy; 3D xx, yy, zz, xy,
+    /// xz, yz), then the volume (toSlot, slotTimesVolume).
+    std::vector<double> slotStress_;
+    static constexpr int slotStride = D * (D + 1) / 2 + 1;
+    /// Stores sigma's symmetric part (2D: its numbers; 3D: 0.5 (a_ij + a_ji) off the diagonal)
+    /// and the volume V in a slot of slotStress_.
+    static void toSlot(const PointTensor<D>& sigma, double V, double* slot)
+    {
+        if constexpr (D == 2) {
+            slot[0] = sigma.xx, slot[1] = sigma.xy, slot[2] = sigma.yy;
+        } else {
+            for (int d = 0; d < 3; ++d) slot[d] = sigma(d, d);
+            slot[3] = 0.5 * (sigma(0, 1) + sigma(1, 0));
+            slot[4] = 0.5 * (sigma(0, 2) + sigma(2, 0));
+            slot[5] = 0.5 * (sigma(1, 2) + sigma(2, 1));
+        }
+        slot[slotStride - 1] = V;
+    }
+    /// V sigma from a slot of slotStress_.
+    static Mat<D> slotTimesVolume(const double* slot)
+    {
+        const double V = slot[slotStride - 1];
+        Mat<D> m;
+        if constexpr (D == 2) {
+            m << V * slot[0], V * slot[1], V * slot[1], V * slot[2];
+        } else {
+            const double xy = V * slot[3], xz = V * slot[4], yz = V * slot[5];
+            m << V * slot[0], xy, xz, xy, V * slot[1], yz, xz, yz, V * slot[2];
+        }
+        return m;
+    }
     std::shared_ptr<Distribution<D>> dist_;
     GhostPoints<D> ghosts_;
     std::vector<std::uint64_t> rowMarks_;  ///< Support::pointsInRows' bitmap by point id (zero between calls)
