@@ -701,7 +701,7 @@ template <int D, class K> struct Stencil {
         forEachProjected(g, M, dw, std::forward<F>(f));
     }
     /// The same with dv in place of the derivatives dw: f(I, N, M g_I) with g_I's component d
-    /// dv[d][i_d] / h times the other directions' weights (Solver::affineGradients).
+    /// dv[d][i_d] / h times the other directions' weights.
     template <class F>
     EMP_ALWAYS_INLINE void forEachProjected(const Grid<D>& g, const Mat<D>& M, const double (*dv)[S], F&& f) const
     {

@@ -560,7 +560,7 @@ TEST(ShapeFunction, ComputeRunIsBitwiseCompute2D) { checkComputeRun<2>(); }
 TEST(ShapeFunction, ComputeRunIsBitwiseCompute3D) { checkComputeRun<3>(); }
 
 // The row forms of a regular support (Stencil::forEachRow, forEachRowProjected, forEachRowAffine;
-// 3D: scatterRowsOf, scatterRowsAffineOf: the solver's P2G and stress passes on the regular
+// 3D: scatterRowsOf, scatterRowsAffineOf too: the solver's P2G and stress passes on the regular
 // lattice) update every node bitwise as the node
 // forms do (forEach, forEachProjected, forEachAffine, the plain versions kept for the phantom
 // twins), with the solver's updates, in every lane width the processor runs (the passes call them
@@ -640,11 +640,11 @@ template <int D, class K> void checkRowForms()
                         h[e] += N[e / D] * fb[e % D] - t[e];
                     }
                 });
-                if constexpr (D == 2)
-                    st.forEachRowAffine(g, o, a0, mp, M, [&](int I0, const double*, const double* Nt) EMP_LAMBDA_INLINE {
-                        double* q = aff2[I0].data();
-                        for (int e = 0; e < S * D; ++e) q[e] += Nt[e];
-                    });
+                // (3D: the force of APIC with the co-rotational update, Solver::particleToGrid)
+                st.forEachRowAffine(g, o, a0, mp, M, [&](int I0, const double*, const double* Nt) EMP_LAMBDA_INLINE {
+                    double* q = aff2[I0].data();
+                    for (int e = 0; e < S * D; ++e) q[e] += Nt[e];
+                });
             });
             if constexpr (D == 3) {
                 // 3D's P2G adds mass and momentum into one 4-lane vector per node (Grid::massMomentum):
@@ -670,9 +670,8 @@ template <int D, class K> void checkRowForms()
                     ASSERT_EQ(std::memcmp(&flip[I * W + 1], mom[I].data(), sizeof(Vec<D>)), 0) << emp::name(w) << ", x = " << x.transpose();
                     ASSERT_EQ(std::memcmp(&apic[I * W + 1], aff[I].data(), sizeof(Vec<D>)), 0) << emp::name(w) << ", x = " << x.transpose();
                 }
-            } else {
-                ASSERT_EQ(std::memcmp(aff.data(), aff2.data(), nodes * sizeof(Vec<D>)), 0) << emp::name(w) << ", x = " << x.transpose();
             }
+            ASSERT_EQ(std::memcmp(aff.data(), aff2.data(), nodes * sizeof(Vec<D>)), 0) << emp::name(w) << ", x = " << x.transpose();
             ASSERT_EQ(std::memcmp(mass.data(), mass2.data(), nodes * sizeof(double)), 0) << emp::name(w);
             const std::size_t bytes = nodes * sizeof(Vec<D>);
             ASSERT_EQ(std::memcmp(mom.data(), mom2.data(), bytes), 0) << emp::name(w) << ", x = " << x.transpose();
