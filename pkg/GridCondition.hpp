@@ -3,7 +3,9 @@
 //   afterNodalVelocity  after P2G and the nodal velocity v_I = P_I / m_I (Eq 26), before the
 //                       strain increment (Eq 27): the grid holds mass, momentum P^{n-1/2} and
 //                       velocity; a condition sets momentum and velocity (essential conditions),
-//                       at t = t^{n-1/2}.
+//                       at t = t^{n-1/2}. (With APIC and the co-rotational update together, P2G
+//                       has added the internal and body forces already: the force is read or
+//                       replaced after the forces.)
 //   afterForces         after the internal, body and traction forces (Eqs 13, 14, 28), before
 //                       the nodal update P^{n+1/2} = P^{n-1/2} + dt f (Eq 29): the grid holds
 //                       the force; a condition replaces it by the force it needs (and may record

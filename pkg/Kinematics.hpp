@@ -39,10 +39,10 @@
 //                  takes F as it is and sums no velocity gradients (Solver::deformationInG2P).
 //                  The internal force is then MLS-MPM's, V_0 tau D_p^-1 (x_I - x_p) N_I: the
 //                  transpose of the operator that gives C_p, so that the stress works only
-//                  through the deformation F follows (Solver::affineForce, scattered by P2G
-//                  with the momentum; with grad N the
-//                  velocity modes the affine fit does not see were pushed by stresses they did
-//                  not strain, and John-Shah's beam eroded spuriously: doc/stability.md).
+//                  through the deformation F follows (scattered by P2G with the momentum,
+//                  Solver::particleToGrid; with grad N the velocity modes the affine fit does
+//                  not see were pushed by stresses they did not strain, and John-Shah's beam
+//                  eroded spuriously: doc/stability.md).
 #pragma once
 #include <algorithm>
 #include <cctype>

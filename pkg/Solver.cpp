@@ -208,8 +208,8 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
     // With APIC + co-rotational (`force`: deformationInG2P), the point's internal and body
     // forces too: f_I += N_I (m_p b - V sigma_p D_p^-1 (x_I - x_p)), the stress and current
     // volume of stressBeforeTransfer. That is an affine field in the same cell offsets u as the
-    // momentum's: N_I (m_p b + G u) with G = -V sigma h diag(r) / h = -V sigma diag(r), r = 1 / (h du)
-    // from the point's frame (0 where du is not positive). Its power on any nodal velocities is
+    // momentum's: N_I (m_p b + G u) with G = -V sigma diag(r), r = 1 / (h du) from the point's
+    // frame (0 where du is not positive). Its power on any nodal velocities is
     // -V sigma : C_p with G2P's C_p: the force is the transpose of G2P's update of F
     // (Kinematics.hpp).
     const Vec<D> gravity = settings_.gravity.head<D>();
