@@ -15,6 +15,13 @@ ratios with their quartiles, for each of --repeats invocations, then the median 
 
 --control adds the default mode a second time: its ratio shows what the method itself reads for
 two identical scenes (1.00 within a few per mille when the pairing holds).
+
+--separate instead runs each mode alone in its own process (one scene in memory, as in a user's
+run), the default's and each mode's processes alternated --rounds times (the order swapped every
+round), and prints per mode the median of the rounds' ratios of CPU time per step with their
+quartiles. Two or three scenes stepped in turn share the caches: the mode with the most bytes a
+point loses more to that, so the readings of the two methods differ (doc/performance.md, "Session
+51"); this one has no such bias but more noise, hence the rounds.
 """
 import argparse
 import json
@@ -36,6 +43,34 @@ def run(a, case, modes):
     return [json.loads(line[5:]) for line in out.splitlines() if line.startswith("JSON ")]
 
 
+def runAlone(a, case, mode):
+    """One process stepping one scene of `mode` alone: its CPU time per step."""
+    transfer, update = mode.split()
+    cmd = [a.exe, "--cases", case, "--sizes", a.sizes, "--size3d", a.size3d, "--threads", "1",
+           "--min-time", str(a.min_time), "--warmup", "2", "--transfer", transfer, "--stress-update", update]
+    out = subprocess.run(cmd, check=True, text=True, capture_output=True, preexec_fn=pinning(a.cpus)).stdout
+    row = [json.loads(line[5:]) for line in out.splitlines() if line.startswith("JSON ")][0]
+    return row["cpu_time_s"] / row["steps"]
+
+
+def separate(a, case, modes):
+    """--separate: each mode alone in its process, alternated with the default's round by round."""
+    for mode in modes[1:]:
+        ratios = []
+        for r in range(a.rounds):
+            if r % 2 == 0:
+                base = runAlone(a, case, DEFAULT)
+                other = runAlone(a, case, mode)
+            else:
+                other = runAlone(a, case, mode)
+                base = runAlone(a, case, DEFAULT)
+            ratios.append(other / base)
+        q = statistics.quantiles(ratios, n=4, method="inclusive") if len(ratios) > 1 else [ratios[0]] * 3
+        print(f"{case:<7}{' + '.join(mode.split()):<26} alone, median of {len(ratios)} rounds "
+              f"{statistics.median(ratios):.3f} (quartiles {q[0]:.3f}-{q[2]:.3f}, range "
+              f"{min(ratios):.3f}-{max(ratios):.3f})", flush=True)
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--exe", default=os.path.join(ROOT, "build", "bench_block_v2"))
@@ -47,10 +82,23 @@ def main():
     p.add_argument("--modes", default="APIC smallStrain,FLIP corotational,APIC corotational",
                    help="comma-separated 'TRANSFER STRESSUPDATE' pairs")
     p.add_argument("--control", action="store_true", help="also time the default against itself")
+    p.add_argument("--separate", action="store_true",
+                   help="each mode alone in its own process, alternated with the default's (see above)")
+    p.add_argument("--rounds", type=int, default=11, help="with --separate: rounds (pairs of processes) per mode")
     p.add_argument("--cpus", type=cpuList, default=None,
                    help="run the benchmark on these CPUs only (e.g. 0; default: anywhere)")
     a = p.parse_args()
+    if a.separate and a.control:
+        p.error("--separate and --control exclude each other (--separate has one scene per process)")
+    if a.rounds < 1:
+        p.error(f"--rounds {a.rounds}: at least 1")
     modes = [DEFAULT] + [m.strip() for m in a.modes.split(",")] + ([DEFAULT] if a.control else [])
+    if a.separate:
+        print(f"time per step over the default's ({DEFAULT}), each mode alone in its own process, CPU time, "
+              f"one thread, {a.min_time} s per process")
+        for case in a.cases.split(","):
+            separate(a, case, modes)
+        return
     print(f"time per step over the default's ({DEFAULT}), one process per invocation stepping the modes in "
           f"turn, CPU time, one thread, {a.min_time} s per mode")
     print(f"{'case':<7}{'mode':<26}{'total':>8}{'rounds: median':>16}{'q1-q3':>14}")

@@ -43,3 +43,28 @@ def test_a_mode_that_is_not_one_is_refused_by_name():
     p = subprocess.run([EXE, "--modes", "FLIP smallStrain,PIC corotational"], text=True, capture_output=True)
     assert p.returncode == 2
     assert "PIC corotational" in p.stderr and "FLIP|APIC" in p.stderr
+
+
+def optionCost(*args):
+    return subprocess.run(["/usr/bin/python3.11", os.path.join(ROOT, "bench", "option_cost.py"), "--exe", EXE, *args],
+                          text=True, capture_output=True)
+
+
+def test_option_cost_separate_times_each_mode_alone_and_gives_the_rounds_median():
+    p = optionCost("--separate", "--rounds", "3", "--min-time", "0.05", "--cases", "gimp2", "--sizes", "3e3",
+                   "--modes", "APIC corotational,FLIP corotational")
+    assert p.returncode == 0, p.stderr
+    lines = [line for line in p.stdout.splitlines() if "alone, median of 3 rounds" in line]
+    assert [line.split()[1:4] for line in lines] == [["APIC", "+", "corotational"], ["FLIP", "+", "corotational"]]
+    for line in lines:
+        median = float(line.split("rounds")[1].split()[0])
+        q1, q3 = (float(v) for v in line.split("quartiles ")[1].split(",")[0].split("-"))
+        lo, hi = (float(v.rstrip(")")) for v in line.split("range ")[1].split("-"))
+        assert 0 < lo <= q1 <= median <= q3 <= hi
+
+
+def test_option_cost_refuses_separate_with_control_and_no_rounds():
+    p = optionCost("--separate", "--control")
+    assert p.returncode == 2 and "--separate and --control" in p.stderr
+    p = optionCost("--separate", "--rounds", "0")
+    assert p.returncode == 2 and "--rounds 0" in p.stderr
