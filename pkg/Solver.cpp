@@ -206,8 +206,8 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
     // APIC 9 % more instructions.
     // `frame` is the point's APIC frame when its run computed it (inRuns), or null.
     // With APIC + co-rotational (`force`: deformationInG2P), the point's internal and body
-    // forces too: f_I += N_I (m_p b - V sigma_p D_p^-1 (x_I - x_p)), the stress and current
-    // volume of stressBeforeTransfer. That is an affine field in the same cell offsets u as the
+    // forces too: f_I += N_I (m_p b - V sigma_p D_p^-1 (x_I - x_p)), V sigma_p as
+    // stressBeforeTransfer left it in the point's slot. That is an affine field in the same cell offsets u as the
     // momentum's: N_I (m_p b + G u) with G = -V sigma diag(r), r = 1 / (h du) from the point's
     // frame (0 where du is not positive). Its power on any nodal velocities is
     // -V sigma : C_p with G2P's C_p: the force is the transpose of G2P's update of F
@@ -276,7 +276,7 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
                 Mat<D> G;
                 if constexpr (decltype(force)::value) {
                     fb = mp * gravity;  // (0 + x is x: no separate form without gravity)
-                    const Mat<D> vs = slotTimesVolume(&slotStress_[static_cast<std::size_t>(k) * slotStride]);
+                    const Mat<D> vs = slotMatrix(&slotStress_[static_cast<std::size_t>(k) * slotStride]);
                     for (int d = 0; d < D; ++d) G.col(d) = -f.r[d] * vs.col(d);
                 }
                 if (st.regular()) {
@@ -1062,7 +1062,7 @@ template <int D, class K> void Solver<D, K>::stressBeforeTransfer(double dt, int
 {
     // APIC with the co-rotational update (deformationInG2P): every point's stress from the F that
     // G2P left (corotationalOfRun: polar decomposition, law, Cauchy stress), in runs of stressRun
-    // slots, and the current volume J V_0 with it (V sigma = V_0 tau, Kinematics.hpp), kept by slot
+    // slots, times the current volume J V_0 (V sigma = V_0 tau, Kinematics.hpp), kept by slot
     // for P2G, which scatters their force. Nothing here reads the grid; blocks of slots that do
     // not depend on the thread count (Scheduler::gather).
     startStressPass();
@@ -1123,8 +1123,10 @@ template <int D, class K> void Solver<D, K>::erode(double dt, int nThreads)
         // Before P2G (stressBeforeTransfer): the eroded points' stresses are replaced in their
         // slots, and P2G scatters the force of the stresses as they now are.
         for (const int p : eroded) {
+            // (V as stressBeforeTransfer took it: V_0 times corotationalOfRun's J, Eigen's
+            // determinant of the same F.)
             double* slot = &slotStress_[static_cast<std::size_t>(schedule_.slotOf(p)) * slotStride];
-            toSlot(PointTensor<D>(points_.stressOf(p, materials_)), slot[slotStride - 1], slot);
+            toSlot(PointTensor<D>(points_.stressOf(p, materials_)), points_.volume[p] * points_.deformationGradient[p].determinant(), slot);
         }
         return;
     }

@@ -451,37 +451,34 @@ private:
     /// co-rotational update too (deformationInG2P), the frames' r[d] follow, at
     /// offset_[(D + d) * n + k], for G2P's C_p.
     std::vector<double> offset_;
-    /// deformationInG2P: the stress and current volume J V_0 of the point in slot k
-    /// (stressBeforeTransfer, then erosion), for P2G's force; empty otherwise.
-    /// slotStride numbers a slot: the stress's symmetric part (2D xx, xy, yy; 3D xx, yy, zz, xy,
-    /// xz, yz), then the volume (toSlot, slotTimesVolume).
+    /// deformationInG2P: V sigma, the stress of the point in slot k times its current volume
+    /// V = J V_0 (stressBeforeTransfer, then erosion), for P2G's force; empty otherwise.
+    /// slotStride numbers a slot: V sigma's symmetric part (2D xx, xy, yy; 3D xx, yy, zz, xy, xz,
+    /// yz), the products P2G took of a slot holding sigma and V until session 51 (toSlot,
+    /// slotMatrix): 8 bytes and D (D + 1) / 2 products a point fewer, the same numbers.
     std::vector<double> slotStress_;
-    static constexpr int slotStride = D * (D + 1) / 2 + 1;
-    /// Stores sigma's symmetric part (2D: its numbers; 3D: 0.5 (a_ij + a_ji) off the diagonal)
-    /// and the volume V in a slot of slotStress_.
+    static constexpr int slotStride = D * (D + 1) / 2;
+    /// Stores V sigma's symmetric part in a slot of slotStress_ (3D: V times 0.5 (a_ij + a_ji)
+    /// off the diagonal).
     static void toSlot(const PointTensor<D>& sigma, double V, double* slot)
     {
         if constexpr (D == 2) {
-            slot[0] = sigma.xx, slot[1] = sigma.xy, slot[2] = sigma.yy;
+            slot[0] = V * sigma.xx, slot[1] = V * sigma.xy, slot[2] = V * sigma.yy;
         } else {
-            for (int d = 0; d < 3; ++d) slot[d] = sigma(d, d);
-            slot[3] = 0.5 * (sigma(0, 1) + sigma(1, 0));
-            slot[4] = 0.5 * (sigma(0, 2) + sigma(2, 0));
-            slot[5] = 0.5 * (sigma(1, 2) + sigma(2, 1));
+            for (int d = 0; d < 3; ++d) slot[d] = V * sigma(d, d);
+            slot[3] = V * (0.5 * (sigma(0, 1) + sigma(1, 0)));
+            slot[4] = V * (0.5 * (sigma(0, 2) + sigma(2, 0)));
+            slot[5] = V * (0.5 * (sigma(1, 2) + sigma(2, 1)));
         }
-        slot[slotStride - 1] = V;
     }
     /// V sigma from a slot of slotStress_.
-    static Mat<D> slotTimesVolume(const double* slot)
+    static Mat<D> slotMatrix(const double* slot)
     {
-        const double V = slot[slotStride - 1];
         Mat<D> m;
-        if constexpr (D == 2) {
-            m << V * slot[0], V * slot[1], V * slot[1], V * slot[2];
-        } else {
-            const double xy = V * slot[3], xz = V * slot[4], yz = V * slot[5];
-            m << V * slot[0], xy, xz, xy, V * slot[1], yz, xz, yz, V * slot[2];
-        }
+        if constexpr (D == 2)
+            m << slot[0], slot[1], slot[1], slot[2];
+        else
+            m << slot[0], slot[3], slot[4], slot[3], slot[1], slot[5], slot[4], slot[5], slot[2];
         return m;
     }
     std::shared_ptr<Distribution<D>> dist_;
