@@ -480,9 +480,11 @@ template <int D> void checkComputeRun()
                 const int m = std::min<int>(len, static_cast<int>(x.size() - begin));
                 std::vector<St> run(m), one(m), withFrames(m);
                 // (the frames' offsets written where a run points them: Solver::offset_)
-                std::vector<double> offsets(D * R), offsetsBoxed(D * R);
+                // (the boxed run also stores its r's where rOut points: Solver::offset_ in 2D)
+                std::vector<double> offsets(D * R), offsetsBoxed(D * R), rBoxed(D * R, -1.0);
                 typename St::template AffineRun<R> frames, framesBoxed;
-                for (int d = 0; d < D; ++d) frames.b[d] = &offsets[d * R], framesBoxed.b[d] = &offsetsBoxed[d * R];
+                for (int d = 0; d < D; ++d)
+                    frames.b[d] = &offsets[d * R], framesBoxed.b[d] = &offsetsBoxed[d * R], framesBoxed.rOut[d] = &rBoxed[d * R];
                 const auto xOf = [&](int i) -> const Vec<D>& { return x[begin + i]; };
                 St::template computeRun<R>(m, xOf, g, half, run.data());
                 St::template computeRun<R>(m, xOf, g, half, withFrames.data(), frames);
@@ -507,6 +509,7 @@ template <int D> void checkComputeRun()
                     ASSERT_EQ(std::memcmp(&boxedFramed[i], &run[i], sizeof run[i]), 0);
                     const typename St::AffineFrame fr = frames.frame(i), frBoxed = framesBoxed.frame(i);
                     ASSERT_EQ(std::memcmp(&frBoxed, &fr, sizeof fr), 0);
+                    for (int d = 0; d < D; ++d) ASSERT_EQ(std::memcmp(&rBoxed[d * R + i], &fr.r[d], sizeof fr.r[d]), 0);
                     const bool overlaps = St::overlaps(x[begin + i], g, lo, hi);
                     if (anyOverlaps) {  // (the flags are written only then)
                         ASSERT_EQ(near[i] != 0, overlaps) << emp::name(w) << ", x = " << x[begin + i].transpose();
