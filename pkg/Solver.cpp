@@ -780,19 +780,21 @@ EMP_NOINLINE void Solver<D, K>::corotationalOfRun3(const int* ids, const St* st,
         const auto store = [](double (*a)[R], int i, const Plain3& m) EMP_LAMBDA_INLINE {
             forEntries([&](auto k) EMP_LAMBDA_INLINE { a[k][i] = m.a[k / 3][k % 3]; });
         };
-        const PassArrays a = passArrays();
-        for (int i = 0; i < (moved ? 0 : n); ++i) {  // (moved: F as G2P left it, no gradient)
-            if constexpr (!K::gradientJumpsAtNodes) {
-                // L(row, column) = c_column[row] / h from the Lane3 sums, the operations of
-                // velocityGradient; four points' sums go into the lanes by one transpose per
-                // column, below.
-                Lane3 c[3];
-                st[i].velocitySums3(grid_, [&](int I) EMP_LAMBDA_INLINE -> const Vec<D>& { return a.velocity[I]; },
-                                    c[0], c[1], c[2]);
-                for (int d = 0; d < 3; ++d) sums[i][d] = c[d].v;
-            } else {
-                const Mat<3> L = velocityGradient(a, ids[i], st[i]);
-                for (int k = 0; k < 9; ++k) r[k][i] = L(k / 3, k % 3);
+        if constexpr (!moved) {  // (moved: F as G2P left it, no gradient; nor the pass's arrays, out of line)
+            const PassArrays a = passArrays();
+            for (int i = 0; i < n; ++i) {
+                if constexpr (!K::gradientJumpsAtNodes) {
+                    // L(row, column) = c_column[row] / h from the Lane3 sums, the operations of
+                    // velocityGradient; four points' sums go into the lanes by one transpose per
+                    // column, below.
+                    Lane3 c[3];
+                    st[i].velocitySums3(grid_, [&](int I) EMP_LAMBDA_INLINE -> const Vec<D>& { return a.velocity[I]; },
+                                        c[0], c[1], c[2]);
+                    for (int d = 0; d < 3; ++d) sums[i][d] = c[d].v;
+                } else {
+                    const Mat<3> L = velocityGradient(a, ids[i], st[i]);
+                    for (int k = 0; k < 9; ++k) r[k][i] = L(k / 3, k % 3);
+                }
             }
         }
         const int i4 = n - n % 4;
