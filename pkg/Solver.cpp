@@ -207,11 +207,11 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
     // `frame` is the point's APIC frame when its run computed it (inRuns), or null.
     // With APIC + co-rotational (`force`: deformationInG2P), the point's internal and body
     // forces too: f_I += N_I (m_p b - V sigma_p D_p^-1 (x_I - x_p)), V sigma_p as
-    // stressBeforeTransfer left it in the point's slot. That is an affine field in the same cell offsets u as the
-    // momentum's: N_I (m_p b + G u) with G = -V sigma diag(r), r = 1 / (h du) from the point's
-    // frame (0 where du is not positive). Its power on any nodal velocities is
-    // -V sigma : C_p with G2P's C_p: the force is the transpose of G2P's update of F
-    // (Kinematics.hpp).
+    // stressBeforeTransfer left it in the point's slot. That is an affine field in the same
+    // cell offsets u as the momentum's: N_I (m_p b + G u) with G = -V sigma diag(r),
+    // r = 1 / (h du) from the point's frame (0 where du is not positive). Its power on any nodal
+    // velocities is -V sigma : C_p with G2P's C_p: the force is the transpose of G2P's update of
+    // F (Kinematics.hpp).
     const Vec<D> gravity = settings_.gravity.head<D>();
     const auto body = [&](auto apic, auto computed, auto force) {
         return [&](const PassArrays& A, int k, const typename St::AffineFrame* frame) EMP_LAMBDA_INLINE {
@@ -1142,7 +1142,8 @@ template <int D, class K> void Solver<D, K>::erode(double dt, int nThreads)
             // (V as stressBeforeTransfer took it: V_0 times corotationalOfRun's J, Eigen's
             // determinant of the same F.)
             double* slot = &slotStress_[static_cast<std::size_t>(schedule_.slotOf(p)) * slotStride];
-            toSlot(PointTensor<D>(points_.stressOf(p, materials_)), points_.volume[p] * points_.deformationGradient[p].determinant(), slot);
+            const double V = points_.volume[p] * points_.deformationGradient[p].determinant();
+            toSlot(PointTensor<D>(points_.stressOf(p, materials_)), V, slot);
         }
         return;
     }

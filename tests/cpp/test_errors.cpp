@@ -203,8 +203,8 @@ template <int D, class K> void checkNonFiniteStrain()
 
 /// A non-finite stress that reaches no velocity (every node of the grid held at rest, so the
 /// force on them is not used) is still reported: the stress pass checks the stresses.
-/// Each point in turn, so that every place in a run's sums (Solver::checkStresses: even and
-/// odd points, the last of an odd run) is checked.
+/// Each point in turn (the four share a run), so that both of a run's sums are checked
+/// (Solver::checkStresses: even and odd points).
 template <int D, class K> void checkNonFiniteStressAtHeldNodes()
 {
     const std::size_t n = isolatedPoints<D, K>().points().size();
