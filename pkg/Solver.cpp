@@ -326,13 +326,14 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
             const auto& order = schedule_.order();
             const auto x = [&](int i) -> const Vec<D>& { return points_.x[order[begin + i]]; };
             typename St::template AffineRun<stencilRun> frames;
+            const std::size_t n = stencil_.size();
+            // (G2P's C_p: deformationInG2P. 2D: computeRun stores r there too, 1.5 % of the step
+            // faster than a memcpy after it; 3D: 1 % slower, so the memcpy stays.)
+            const bool scales = offset_.size() > D * n;
             if constexpr (decltype(apic)::value) {
-                const std::size_t n = stencil_.size();
                 for (int d = 0; d < D; ++d) frames.b[d] = &offset_[d * n + begin];
-                // (G2P's C_p: deformationInG2P. 2D: computeRun stores r there too, 1.5 % of the
-                // step faster than a memcpy after it; 3D: 1 % slower, so the memcpy stays.)
                 if constexpr (D == 2)
-                    if (offset_.size() > D * n)
+                    if (scales)
                         for (int d = 0; d < D; ++d) frames.rOut[d] = &offset_[(D + d) * n + begin];
             }
             // Near a crack (or bodies in one grid), which points' supports may touch a marked
@@ -343,9 +344,8 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
             typename St::Box* const nearBox = begin < nearSlots.second && end > nearSlots.first ? &box : nullptr;
             if constexpr (decltype(apic)::value) {
                 St::template computeRun<stencilRun>(end - begin, x, g, half, &stencil_[begin], frames, nearBox);
-                const std::size_t n = stencil_.size();
                 if constexpr (D == 3)
-                    if (offset_.size() > D * n)
+                    if (scales)
                         for (int d = 0; d < D; ++d)
                             std::memcpy(&offset_[(D + d) * n + begin], frames.r[d], (end - begin) * sizeof(double));
             } else
