@@ -24,6 +24,9 @@
 // --steps N times exactly N steps per run instead of --min-time (the checksums then compare
 // builds: an optimisation that keeps the arithmetic must keep them).
 // --quick is --sizes 2e4 --size3d 2e4 --min-time 0.3 --warmup 1.
+// --step passes runs every step pass by pass (Solver::setPipelined(false)); by default a scene
+// the wavefront serves runs as one (Solver::pipelineable; doc/performance.md, "Session 52"), with
+// the same results. JSON lines carry "step": "pipelined" or "passes" (the last step's).
 // --modes "T U,T U,..." (transfer and stress update per mode) measures what the options cost in
 // one process: it builds the block once per mode and steps the scenes in turn, --chunk steps
 // (default 1) each, in alternating order, on the first thread count, until each has run
@@ -82,6 +85,7 @@ struct Options {
     int columnCells = 0, rankColumns = 1;  ///< the scheduler's columns; --mpi: columns of ranks
     std::vector<std::pair<emp::Transfer, emp::StressUpdate>> modes;  ///< --modes: interleaved scenes
     int chunk = 1;  ///< --modes: steps per scene and turn
+    bool passes = false;  ///< --step passes: every step pass by pass (Solver::setPipelined(false))
 };
 
 /// The MPI transport, counting the bytes this rank sends (exchanges, reductions, gathers).
@@ -142,6 +146,7 @@ struct Result {
     double timeRatio = 0, medianRatio = 0, q1 = 0, q3 = 0;  ///< --modes: time per step over the first mode's
     int ranks = 1;
     double bytesSentPerStep = 0;  ///< --mpi: the most any rank sent per step
+    bool pipelined = false;  ///< whether the timed steps ran as a wavefront (Solver::lastStepPipelined)
 };
 
 template <class T> std::vector<T> splitList(const std::string& s)
@@ -170,6 +175,7 @@ std::vector<std::string> splitNames(const std::string& s)
                  "bench_block: %s\nusage: bench_block [--sizes 1e5,1e6] [--threads 1,2] [--min-time S]\n"
                  "       [--warmup N] [--cases gimp2,linear2,gimp3] [--size3d N] [--steps N] [--amp A] [--quick]\n"
                  "       [--column-cells W] [--mpi [--rank-columns C]] [--transfer T] [--stress-update U]\n"
+                 "       [--step passes|pipelined]\n"
                  "       [--modes \"T U,T U,...\" [--chunk N]]\n",
                  msg);
     std::exit(2);
@@ -196,6 +202,11 @@ Options parse(int argc, char** argv)
         else if (a == "--column-cells") o.columnCells = std::stoi(next());
         else if (a == "--rank-columns") o.rankColumns = std::stoi(next());
         else if (a == "--gravity") o.gravity = std::stod(next());
+        else if (a == "--step") {
+            const std::string v = next();
+            if (v != "passes" && v != "pipelined") usage("--step takes passes or pipelined");
+            o.passes = v == "passes";
+        }
         else if (a == "--transfer") {
             o.transfer = emp::transferOf(next());
             if (o.transfer == emp::Transfer::unset) usage("--transfer takes FLIP or APIC");
@@ -270,6 +281,7 @@ template <int D, class K> emp::Solver<D, K> makeBlock(const std::array<int, D>& 
     s.stressUpdate = o.stressUpdate;
     s.columnCells = o.columnCells;
     emp::Solver<D, K> solver(s);
+    solver.setPipelined(!o.passes);
     const int mat = solver.addMaterial(E, nu, rho, false, emp::lawIndex("spectral"));
     const double dx = h / ppc, vol = std::pow(dx, D);
     const double c = solver.materials()[mat].waveSpeed();
@@ -359,6 +371,7 @@ Result runOnce(const std::string& name, const std::array<int, D>& n, int threads
         if (checkAt > 0 && steps == checkAt) r.checksum = checksum(solver);
     }
     if (checkAt <= 0) r.checksum = checksum(solver);
+    r.pipelined = solver.lastStepPipelined();
     if (o.mpi) {  // the whole scene: all ranks' points over the slowest rank's time
         double sums[1] = {static_cast<double>(solver.points().size())};
         double maxes[3] = {wall, cpu, (mpiTransport()->sent - sent0) / steps};
@@ -436,6 +449,7 @@ void runModes(const std::string& name, const std::array<int, D>& n, const Option
         r.pps = static_cast<double>(r.points) * steps / wall[m];
         r.ratio = 1;
         r.checksum = checksum(*solvers[m]);
+        r.pipelined = solvers[m]->lastStepPipelined();
         r.mode = std::string(emp::name(o.modes[m].first)) + "+" + emp::name(o.modes[m].second);
         std::vector<double> ratios;
         for (std::size_t i = 0; i < perRound[m].size(); ++i) ratios.push_back(perRound[m][i] / perRound[0][i]);
@@ -551,10 +565,10 @@ int main(int argc, char** argv)
         std::printf("JSON {\"case\": \"%s\", \"points\": %ld, \"threads\": %d, \"steps\": %ld, \"wall_time_s\": %.6f, \"cpu_time_s\": %.6f, "
                     "\"particle_steps_per_s\": %.6g, \"ratio_to_first_thread_count\": %.4f, \"resident_bytes_per_point\": %.1f, "
                     "\"checksum\": \"%016" PRIx64 "\", \"bitwise_equal_to_first\": %s, \"ranks\": %d, \"bytes_sent_per_step\": %.0f, "
-                    "\"isa\": \"%s\", \"lanes\": \"%s\"%s}\n",
+                    "\"isa\": \"%s\", \"lanes\": \"%s\", \"step\": \"%s\"%s}\n",
                     r.caseName.c_str(), r.points, r.threads, r.steps, r.wall, r.cpu, r.pps, r.ratio, r.bytesPerPoint, r.checksum,
                     r.checked ? (r.deterministic ? "true" : "false") : "null", r.ranks, r.bytesSentPerStep, isa,
-                    emp::name(emp::laneIsa()), modeFields(r).c_str());
+                    emp::name(emp::laneIsa()), r.pipelined ? "pipelined" : "passes", modeFields(r).c_str());
     if (!allSame) {
         std::fprintf(stderr, "bench_block: results differ between thread counts (determinism broken)\n");
         return 3;

@@ -1,6 +1,10 @@
 #include "Solver.hpp"
 
+#include <omp.h>
+
 #include <algorithm>
+#include <atomic>
+#include <exception>
 #include <climits>
 #include <cstring>
 #include <cmath>
@@ -48,6 +52,29 @@ template <int D, class K> void Solver<D, K>::step(double dt, int nThreads)
     schedulePoints(nThreads);              // binning and colouring (Scheduler)
     markCrackedNodes();                    // phantom nodes for the cracks' position (3.3.1)
     markBodyNodes();                       //     or a field per body where bodies meet
+    lastStepPipelined_ = pipelineable(nThreads);
+    if (lastStepPipelined_) {
+        // The same stages as below, as a wavefront over the strips (pipelineLoop): (1), (2),
+        // the conditions, (3), (5), the grid update and (6) follow each other a few strips
+        // apart, each strip's stencils in its worker's ring instead of stencil_.
+        if (!stencil_.empty()) std::vector<St>().swap(stencil_);
+        StripPasses passes;
+        passes.dt = dt;
+        passes.threads = nThreads;
+        strips_ = &passes;
+        try {
+            clearGrid(nThreads);
+            startStressPass();
+            particleToGrid(nThreads);  // (which runs the others: StripPasses)
+        } catch (...) {
+            strips_ = nullptr;
+            throw;
+        }
+        strips_ = nullptr;
+        transportCracks(dt);
+        return;
+    }
+    stencil_.resize(points_.size());
     const bool fused = deformationInG2P();
     if (fused) {
         stressBeforeTransfer(dt, nThreads);// (3) with APIC + co-rotational: the stresses from F
@@ -70,6 +97,285 @@ template <int D, class K> void Solver<D, K>::step(double dt, int nThreads)
     accumulateExternalWork(dt);            //     work of tractions and gravity (diagnostics)
     gridToParticle(dt, nThreads);          // (6) FLIP or APIC velocity and position, Eqs 30-31
     transportCracks(dt);                   //     crack vertices move with the material
+}
+
+template <int D, class K> thread_local typename Solver<D, K>::St* Solver<D, K>::stripStencils_ = nullptr;
+
+template <int D, class K> bool Solver<D, K>::pipelineable(int nThreads) const
+{
+    // The scenes the wavefront serves (pipelineLoop); the others run pass by pass, with the same
+    // results. What is left out has a stage over the whole grid or all points between P2G and
+    // G2P (erosion, tractions, the crack's and the bodies' mapping and contact, a distributed
+    // run's exchanges, conditions on points), or other passes (APIC, the co-rotational update,
+    // 3D, the scheduler's columns, the baseline's per-point P2G).
+    if (!pipelined_ || D != 2 || nThreads > 2 || !K::laneEvaluation || laneIsa() == LaneIsa::baseline) return false;
+    if (dist_ || mapping_ || points_.bodies || erosion_ || !tractions_.empty() || contact_ || crackContact_ ||
+        !phantom_.empty() || grid_.totalNodes() != grid_.numNodes() || schedule_.numColumns() > 1)
+        return false;
+    if (settings_.transfer != Transfer::flip || settings_.stressUpdate != StressUpdate::smallStrain) return false;
+    for (const auto& c : conditions_) {  // (velocity conditions on nodes: their rows are known)
+        const auto* vc = dynamic_cast<const VelocityCondition<D>*>(c.get());
+        if (!vc || !vc->points.empty()) return false;
+    }
+    return schedule_.stripStart().size() > 1;
+}
+
+template <int D, class K> void Solver<D, K>::pipelineLoop()
+{
+    // The step as a wavefront over the strips: P2G, the nodal velocity (rows), the conditions,
+    // the stress pass, the grid update (rows) and G2P follow each other a few strips apart, so
+    // that a strip's points and stencils are used again while they are in the caches (the
+    // passes stream all points three times, and from about 1e5 2D points on the data no longer
+    // fits the last-level cache: doc/performance.md, "Session 52").
+    //
+    // Strip s holds the points whose base node row lies in [W s, W s + W): they reach the node
+    // rows [W s, W s + reach]. A node row gets contributions from two neighbouring strips; the
+    // passes run the even strips first (Scheduler::scatterPhase), so the wavefront takes P2G and
+    // the stress pass in the order 0, 2, 1, 4, 3, 6, 5, ...: each node receives the same
+    // contributions in the same order, and every result is bitwise the passes'. A row's nodal
+    // velocity is taken once no later strip reaches it; the conditions (on node lists) once
+    // every row they touch is final, before any strip reads those rows; the grid update once
+    // the row's forces are final; a strip's G2P once its rows are updated.
+    //
+    // Two workers: strips [0, h) from h - 1 down (stage j: h - 2 - 2j, then h - 1 - 2j) and
+    // [h, NS) from h up (h even), so that both start at the node rows they share, W h ...
+    // W h + S - 2, which the upper worker owns. Six flags order the work on those rows as above.
+    auto& g = grid_;
+    const double dt = strips_->dt;
+    const auto& start = schedule_.stripStart();
+    const int NS = static_cast<int>(start.size()) - 1;
+    const int rows = g.n[D - 1], rowSize = g.stride[D - 1];
+    constexpr int W = Scheduler<D>::stripWidth, S = K::S, reach = W + S - 2;
+    int condLo = rows, condHi = -1;  // the rows the conditions touch
+    for (const auto& c : conditions_)
+        for (const int I : static_cast<const VelocityCondition<D>&>(*c).nodes)
+            condLo = std::min(condLo, I / rowSize), condHi = std::max(condHi, I / rowSize);
+    int h = NS;
+    if (strips_->threads >= 2 && NS >= 8) {  // the boundary at half the points, even, 2 .. NS - 2
+        h = 2;
+        for (int c = 4; c <= NS - 2; c += 2)
+            if (std::abs(start[c] - start[NS] / 2) < std::abs(start[h] - start[NS] / 2)) h = c;
+        // (conditions on both sides of the boundary, or on the shared rows: one worker)
+        if (condHi >= 0 && condLo < W * h + S - 1 && condHi >= W * h - S) h = NS;
+    }
+    const bool two = h < NS, condLower = condHi >= 0 && condHi < W * h;
+    workers_ = two ? 2 : 1;
+    // Each worker's ring of R strips' stencils: a strip's slot is reused once its G2P is done.
+    // The strips from the conditions' lowest row to their highest wait for them (no strip that
+    // reads a condition's rows goes on before every row it touches is final), so the ring holds
+    // that many and a margin; conditions at both ends of a scene make it hold every strip.
+    const int R = std::min(NS, std::max(16, condHi >= 0 ? (condHi - condLo) / W + 10 : 0));
+    int maxStrip = 0;
+    for (int s = 0; s < NS; ++s) maxStrip = std::max(maxStrip, start[s + 1] - start[s]);
+    if (ring_.size() < static_cast<std::size_t>((two ? 2 : 1) * R * maxStrip)) ring_.resize((two ? 2 : 1) * R * maxStrip);
+    const double cut = massCutoffAbs_;
+    const auto velocityRows = [&](int lo, int hi) {  // (nodalVelocity's numbers)
+        for (int I = lo * rowSize; I < hi * rowSize; ++I) {
+            g.invMass[I] = g.mass[I] > cut && g.mass[I] > 0 ? 1.0 / g.mass[I] : 0.0;
+            g.velocity[I] = g.mass[I] > 0 ? Vec<D>(g.momentum[I] / g.mass[I]) : Vec<D>::Zero();
+        }
+    };
+    const auto updateRows = [&](int lo, int hi) {  // (updateGrid's numbers)
+        for (int I = lo * rowSize; I < hi * rowSize; ++I) {
+            g.momentum[I] += dt * g.force[I];
+            g.velocity[I] = g.momentum[I] * g.invMass[I];
+            g.force[I] *= g.invMass[I];
+        }
+    };
+    // Flags: 0 upper P2G(h) done, 1 lower P2G(h - 1), 2 upper velocity of the shared rows,
+    // 3 upper stress(h), 4 lower stress(h - 1), 5 upper update of the shared rows; `failed`
+    // stops the other worker when one throws.
+    std::atomic<int> flag[6];
+    for (auto& f : flag) f.store(0);
+    std::atomic<bool> failed{false};
+    const auto set = [&](int i) { flag[i].store(1, std::memory_order_release); };
+    const auto is = [&](int i) { return !two || flag[i].load(std::memory_order_acquire) != 0; };
+    bool velCond = condHi < 0, forceCond = condHi < 0;
+    struct Ring {
+        St* base;
+        int R, maxStrip;
+        const int* start;
+        std::vector<int> holder;
+        bool free(int s) const { return holder[s % R] == -1; }
+        void take(int s) { holder[s % R] = s, use(s); }
+        void use(int s) { stripStencils_ = base + (s % R) * maxStrip - start[s]; }
+        void release(int s) { holder[s % R] = -1; }
+    };
+    // The upward worker: strips [a, NS), node rows [W a, rows); below `gate` the rows it shares
+    // with the lower worker (a > 0).
+    const auto upward = [&](int worker, int a, bool owner) {  // (owner: applies the conditions)
+        Ring ring{ring_.data() + worker * R * maxStrip, R, maxStrip, start.data(), std::vector<int>(R, -1)};
+        const int nb = NS - a, stages = nb / 2 + 1;
+        const auto stage = [&](const std::function<void(int, int)>& f, int m, bool p2g) {
+            for (const int s : {a + 2 * m, a + 2 * m - 1}) {
+                if (s < a || s >= NS) continue;
+                p2g ? ring.take(s) : ring.use(s);
+                f(start[s], start[s + 1]);
+                if (s == a) set(p2g ? 0 : 3);
+            }
+        };
+        const auto final = [&](int m) {  // rows [W a, final) no later strip of this worker reaches
+            if (m == 0) return W * a;
+            const int q = std::min(a + 2 * (m - 1), NS - 1);
+            return q == NS - 1 ? rows : (q + 1) * W;
+        };
+        const auto stageFree = [&](int m) {
+            for (const int s : {a + 2 * m, a + 2 * m - 1})
+                if (s >= a && s < NS && !ring.free(s)) return false;
+            return true;
+        };
+        const int gate = a > 0 ? W * a + S - 1 : W * a;
+        int mP = 0, mS = 0, vel = W * a, force = W * a, upd = W * a, next = a;
+        while (next < NS) {
+            if (failed.load(std::memory_order_relaxed)) return;
+            bool moved = false;
+            if (mP < stages && stageFree(mP)) {
+                stage(strips_->p2g, mP, true);
+                ++mP;
+                moved = true;
+            }
+            const int fv = final(mP);
+            if (fv > vel && (vel >= gate || is(1))) {
+                velocityRows(vel, fv);
+                if (vel < gate && fv >= gate) set(2);
+                vel = fv;
+                moved = true;
+            }
+            if (owner && !velCond && vel > condHi) {
+                applyConditionsAfterVelocity(dt);
+                velCond = true;
+            }
+            while (mS < mP) {
+                const int need = W * std::min(a + 2 * mS, NS - 1) + reach;  // the last row the stage reads
+                if (!(vel == rows || vel > need) || !(!owner || velCond || need < condLo)) break;
+                stage(strips_->stress, mS, false);
+                ++mS;
+                force = final(mS);
+                moved = true;
+            }
+            if (owner && velCond && !forceCond && force > condHi) {
+                applyConditionsAfterForces(dt);
+                forceCond = true;
+            }
+            int upTo = owner && !forceCond ? std::min(force, condLo) : force;
+            if (upd < gate && !is(4)) upTo = upd;
+            if (upTo > upd) {
+                updateRows(upd, upTo);
+                if (upd < gate && upTo >= gate) set(5);
+                upd = upTo;
+                moved = true;
+            }
+            while (next < NS && (upd == rows || upd > W * next + reach)) {
+                ring.use(next);
+                strips_->g2p(next);
+                ring.release(next);
+                ++next;
+                moved = true;
+            }
+            if (!moved) {
+                if (!two)  // (one worker waits on nothing: no progress would be a flaw here)
+                    throw std::logic_error("EigenMPM: internal error: the wavefront step stalled at strip " + std::to_string(next));
+                __builtin_ia32_pause();
+            }
+        }
+    };
+    // The downward worker: strips [0, h) from h - 1 down, node rows [0, W h).
+    const auto downward = [&]() {
+        Ring ring{ring_.data(), R, maxStrip, start.data(), std::vector<int>(R, -1)};
+        const int stages = h / 2;
+        const auto wait = [&](int i) {
+            while (!is(i))
+                if (failed.load(std::memory_order_relaxed)) return false;
+                else __builtin_ia32_pause();
+            return true;
+        };
+        const auto stage = [&](const std::function<void(int, int)>& f, int j, bool p2g) {
+            for (const int s : {h - 2 - 2 * j, h - 1 - 2 * j}) {
+                if (s == h - 1 && !wait(p2g ? 0 : 3)) return false;  // (the upper strip first)
+                p2g ? ring.take(s) : ring.use(s);
+                f(start[s], start[s + 1]);
+                if (s == h - 1) set(p2g ? 1 : 4);
+            }
+            return true;
+        };
+        const auto low = [&](int j) {  // own rows [low, W h) no later strip reaches, after stages 0 .. j - 1
+            if (j == 0) return W * h;
+            const int lowest = h - 2 * j;
+            return lowest <= 0 ? 0 : W * lowest + S - 1;
+        };
+        int jP = 0, jS = 0, vel = W * h, force = W * h, upd = W * h, next = h - 1;
+        while (next >= 0) {
+            if (failed.load(std::memory_order_relaxed)) return;
+            bool moved = false;
+            if (jP < stages && ring.free(h - 2 - 2 * jP) && ring.free(h - 1 - 2 * jP)) {
+                if (!stage(strips_->p2g, jP, true)) return;
+                ++jP;
+                moved = true;
+            }
+            if (low(jP) < vel) {
+                velocityRows(low(jP), vel);
+                vel = low(jP);
+                moved = true;
+            }
+            if (condLower && !velCond && vel <= condLo) {
+                applyConditionsAfterVelocity(dt);
+                velCond = true;
+            }
+            while (jS < jP) {
+                const int first = W * (h - 2 - 2 * jS);  // the lowest row the stage reads
+                if (vel > first || (jS == 0 && !is(2)) || (condLower && !velCond && first <= condHi)) break;
+                if (!stage(strips_->stress, jS, false)) return;
+                ++jS;
+                force = low(jS);
+                moved = true;
+            }
+            if (condLower && velCond && !forceCond && force <= condLo) {
+                applyConditionsAfterForces(dt);
+                forceCond = true;
+            }
+            const int downTo = condLower && !forceCond ? std::max(force, condHi + 1) : force;
+            if (downTo < upd) {
+                updateRows(downTo, upd);
+                upd = downTo;
+                moved = true;
+            }
+            while (next >= 0 && upd <= W * next && (next < h - 1 || is(5))) {
+                ring.use(next);
+                strips_->g2p(next);
+                ring.release(next);
+                --next;
+                moved = true;
+            }
+            if (!moved) __builtin_ia32_pause();
+        }
+    };
+    if (!two) {
+        upward(0, 0, true);
+    } else {
+        std::exception_ptr error[2];
+#pragma omp parallel num_threads(2)
+        {
+            const int t = omp_get_thread_num();
+            try {
+                if (omp_get_num_threads() < 2) {  // (a team of one: the whole sweep, one worker)
+                    workers_ = 1;
+                    upward(0, 0, true);
+                } else if (t == 0) {
+                    downward();
+                } else {
+                    upward(1, h, !condLower);
+                }
+            } catch (...) {
+                error[t] = std::current_exception();
+                failed.store(true);
+            }
+            stripStencils_ = nullptr;
+        }
+        for (const auto& e : error)
+            if (e) std::rethrow_exception(e);
+    }
+    stripStencils_ = nullptr;
+    accumulateExternalWork(dt);
 }
 
 template <int D, class K> void Solver<D, K>::checkTimeStep(double dt)
@@ -133,7 +439,6 @@ template <int D, class K> void Solver<D, K>::schedulePoints(int nThreads)
           << ") at the start of step " << steps_ + 1 << "; move it back or give a larger domain";
         throw SimulationError(s.str());
     }
-    stencil_.resize(points_.size());
     if (settings_.transfer == Transfer::apic)
         offset_.resize((deformationInG2P() ? 2 : 1) * D * points_.size());
     else if (!offset_.empty())
@@ -349,7 +654,7 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
                         for (int d = 0; d < D; ++d)
                             std::memcpy(&offset_[(D + d) * n + begin], frames.r[d], (end - begin) * sizeof(double));
             } else
-                St::template computeRun<stencilRun>(end - begin, x, g, half, &stencil_[begin], nearBox);
+                St::template computeRun<stencilRun>(end - begin, x, g, half, (stripStencils_ ? stripStencils_ : stencil_.data()) + begin, nearBox);
             if (box.any) mapRun(begin, end, near);
             withLaneIsa([&]() EMP_LAMBDA_INLINE {  // (the rows' loops in the lanes' width)
                 const PassArrays A = passArrays();
@@ -370,6 +675,15 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
         const auto point = body(apic, std::false_type{}, force);
         schedule_.scatter(nThreads, [&](int k) EMP_LAMBDA_INLINE { point(passArrays(), k, nullptr); }, between);
     };
+    if constexpr (K::laneEvaluation)
+        if (strips_) {  // (a wavefront step: FLIP's runs, strip by strip; pipelineable)
+            const auto runs = inRuns(std::false_type{}, std::false_type{});
+            strips_->p2g = [&](int begin, int end) {
+                for (int k = begin; k < end; k += stencilRun) runs(k, std::min(k + stencilRun, end));
+            };
+            stressAndInternalForce(strips_->dt, strips_->threads);
+            return;
+        }
     if (deformationInG2P())
         scatter(std::true_type{}, std::true_type{});
     else if (settings_.transfer == Transfer::apic)
@@ -1048,7 +1362,7 @@ template <int D, class K> void Solver<D, K>::stressAndInternalForce(double dt, i
                         a, k, sigma[k - begin], gravity, decltype(corotational)::value ? J[k - begin] : 0.0);
             });
         };
-        schedule_.scatterStrips(nThreads, [&](int stripBegin, int stripEnd) {
+        const auto strip = [&](int stripBegin, int stripEnd) {
             double J[2][stressRun];  // (the co-rotational update's det F, for the current volume)
             PointTensor<D> sigma[2][stressRun];
             int previous = -1, now = 0;
@@ -1058,9 +1372,15 @@ template <int D, class K> void Solver<D, K>::stressAndInternalForce(double dt, i
                 previous = begin;
             }
             if (previous >= 0) forces(previous, stripEnd, J[now ^ 1], sigma[now ^ 1]);
-        }, between);
+        };
+        if (strips_) {  // (a wavefront step)
+            strips_->stress = strip;
+            gridToParticle(strips_->dt, strips_->threads);
+            return;
+        }
+        schedule_.scatterStrips(nThreads, strip, between);
     };
-    startStressPass();
+    if (!strips_) startStressPass();  // (a wavefront step started it before P2G)
     // Two forms: the small-strain update's and the co-rotational one's (the current volume).
     // (With APIC too, the stresses are made before P2G, which scatters their force:
     // stressBeforeTransfer.)
@@ -1443,7 +1763,23 @@ template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThre
             withLaneIsa(block);
         };
     };
-    Check c = deformationInG2P()                       ? schedule_.gather(nThreads, Check{}, inLanes(apicWith(std::true_type{})), combine)
+    Check c;
+    if (strips_) {
+        // A wavefront step: the checks strip by strip, summed in strip order (the same for one
+        // and two workers; the passes' blocks of 2048 slots group the kinetic energy's sum
+        // otherwise: round-off).
+        const auto& start = schedule_.stripStart();
+        std::vector<Check> parts(start.size() - 1);
+        const auto block = inLanes(flip);
+        strips_->g2p = [&](int s) {
+            Check acc{};
+            block(start[s], start[s + 1], acc);
+            parts[s] = acc;
+        };
+        pipelineLoop();
+        for (const Check& part : parts) combine(c, part);
+    } else
+        c = deformationInG2P()                       ? schedule_.gather(nThreads, Check{}, inLanes(apicWith(std::true_type{})), combine)
               : settings_.transfer == Transfer::apic ? schedule_.gather(nThreads, Check{}, inLanes(apicWith(std::false_type{})), combine)
                                                      : schedule_.gather(nThreads, Check{}, inLanes(flip), combine);
     const auto offGrid = [&](const Vec<D>& x) {

@@ -99,6 +99,15 @@ public:
     /// Contact between the faces of the pre-existing cracks (CrackFaceContact.hpp), with Coulomb
     /// friction mu; without it (the paper's model) the faces pass through each other.
     void setCrackContact(bool on, double friction);
+    /// Whether a step may run as a wavefront over the strips (pipelineLoop, doc/performance.md
+    /// "Session 52"): on by default; off runs every step pass by pass. Bitwise the same results
+    /// either way; a switch for comparisons and tests, not part of the saved state.
+    void setPipelined(bool on) { pipelined_ = on; }
+    bool pipelined() const { return pipelined_; }
+    /// Whether the last step ran as a wavefront (a scene it serves: pipelineable), and on how
+    /// many workers (1 or 2; 0 after a step pass by pass).
+    bool lastStepPipelined() const { return lastStepPipelined_; }
+    int lastStepWorkers() const { return lastStepPipelined_ ? workers_ : 0; }
     /// The crack-face contact, or nullptr when it is off.
     const std::shared_ptr<CrackFaceContact<D>>& crackContact() const { return crackContact_; }
     /// Adds a pre-existing crack (2D: polyline; 3D: planar polygon; z ignored in 2D); returns its
@@ -280,6 +289,24 @@ private:
     void updateGrid(double dt, int nThreads);
     void gridToParticle(double dt, int nThreads);
     void accumulateExternalWork(double dt);
+    /// The step as a wavefront over the strips (doc/performance.md, "Session 52"): each pass's
+    /// work for one strip, set by particleToGrid, stressAndInternalForce and gridToParticle in
+    /// turn, each calling the next, the last running pipelineLoop.
+    struct StripPasses {
+        double dt = 0;
+        int threads = 1;
+        std::function<void(int, int)> p2g, stress;  ///< the slots [begin, end) of one strip
+        std::function<void(int)> g2p;              ///< strip s, its checks kept per strip
+    };
+    bool pipelineable(int nThreads) const;
+    void pipelineLoop();
+    StripPasses* strips_ = nullptr;  ///< set during a wavefront step
+    bool pipelined_ = true, lastStepPipelined_ = false;
+    int workers_ = 0;
+    /// A worker's ring of its strips' stencils during a wavefront step (stripStencils_ + k is
+    /// slot k's stencil for the strip it is on), or null: the passes' stencil_.
+    static thread_local St* stripStencils_;
+    std::vector<St> ring_;
     void transportCracks(double dt);
 
     // Per-point pieces of the fused stress/force pass, which runs in runs of stressRun points.
@@ -304,7 +331,7 @@ private:
     };
     PassArrays passArrays()
     {
-        PassArrays a{points_.view(), schedule_.order().data(), stencil_.data(), grid_.mass.data(),
+        PassArrays a{points_.view(), schedule_.order().data(), stripStencils_ ? stripStencils_ : stencil_.data(), grid_.mass.data(),
                      grid_.momentum.data(), grid_.velocity.data(), grid_.force.data(), {}, {},
                      grid_.massMomentum.data()};
         const std::size_t n = stencil_.size();
