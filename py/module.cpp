@@ -1123,6 +1123,11 @@ template <class Sv> struct Bind {
             .add_property("transfer", +[](const Sv& s) { return std::string(emp::name(s.settings().transfer)); })
             .add_property("stressUpdate", +[](const Sv& s) { return std::string(emp::name(s.settings().stressUpdate)); })
             .def("kineticEnergyAtStep", &Sv::kineticEnergyAtStep)
+            .add_property("pipelined", &Sv::pipelined, &Sv::setPipelined,
+                          "whether a step may run as a wavefront over the strips where the scene allows one "
+                          "(doc/performance.md, 'Session 52'); False: pass by pass. The same results either way.")
+            .def("lastStepPipelined", &Sv::lastStepPipelined)
+            .def("lastStepWorkers", &Sv::lastStepWorkers)
             .def("externalWork", &Sv::externalWork)
             .def("linearMomentum", +[](const Sv& s) { return fromVec3(s.linearMomentum()); })
             .def("angularMomentum", +[](const Sv& s) { return fromVec3(s.angularMomentum()); })
