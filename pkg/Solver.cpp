@@ -146,6 +146,9 @@ template <int D, class K> void Solver<D, K>::pipelineLoop()
     const int NS = static_cast<int>(start.size()) - 1;
     const int rows = g.n[D - 1], rowSize = g.stride[D - 1];
     constexpr int W = Scheduler<D>::stripWidth, S = K::S, reach = W + S - 2;
+    struct Reset {  // (the passes read stencil_ again however this ends, an exception included)
+        ~Reset() { stripStencils_ = nullptr; }
+    } reset;
     int condLo = rows, condHi = -1;  // the rows the conditions touch
     for (const auto& c : conditions_)
         for (const int I : static_cast<const VelocityCondition<D>&>(*c).nodes)
@@ -374,7 +377,7 @@ template <int D, class K> void Solver<D, K>::pipelineLoop()
         for (const auto& e : error)
             if (e) std::rethrow_exception(e);
     }
-    stripStencils_ = nullptr;
+    stripStencils_ = nullptr;  // (the master thread's, before the diagnostics)
     accumulateExternalWork(dt);
 }
 
