@@ -15,7 +15,11 @@
 // to a pair hit by another process), with its quartiles. Single thread unless --threads N.
 //
 //   bench_fracture [--h-mm 0.5] [--crack-time-us 25] [--block 20] [--min-time 4] [--threads 1]
-//                  [--block-points 1e5] [--quick]
+//                  [--block-points 1e5] [--quick] [--step-passes]
+// --step-passes: (a)'s block without erosion steps pass by pass too (Solver::setPipelined(false)):
+// then (a) reads what the erosion stage itself costs; by default the block without erosion runs
+// as a wavefront (doc/performance.md, "Session 52"), which a scene with erosion does not yet, and
+// (a) reads what attaching erosion costs a user.
 // --quick: --h-mm 1 --min-time 0.5 --block-points 2e4.
 #include <cmath>
 #include <cstdio>
@@ -38,6 +42,7 @@ using Plate = emp::Solver<2, emp::GimpKernel>;
 struct Options {
     double hmm = 0.5, crackTimeUs = 25.0, minTime = 4.0, blockPoints = 1e5;
     int block = 20, threads = 1;
+    bool passes = false;  ///< --step-passes
 };
 
 /// CPU seconds of the process spent in f (less sensitive than wall time to other processes
@@ -141,6 +146,7 @@ int main(int argc, char** argv)
         else if (a == "--min-time") o.minTime = next();
         else if (a == "--threads") o.threads = static_cast<int>(next());
         else if (a == "--block-points") o.blockPoints = next();
+        else if (a == "--step-passes") o.passes = true;
         else if (a == "--quick") {
             o.hmm = 1.0;
             o.minTime = 0.5;
@@ -166,6 +172,8 @@ int main(int argc, char** argv)
         s.stressUpdate = emp::StressUpdate::smallStrain;
         s.h = 1e-3;
         Plate a(s), b(s);
+        a.setPipelined(!o.passes);  // (b, without erosion, runs as a wavefront unless --step-passes;
+        b.setPipelined(!o.passes);  //  a, with it, pass by pass: Solver::pipelineable)
         for (Plate* p : {&a, &b}) {
             const int mat = p->addMaterial(30e9, 0.2, 2400, false, emp::lawIndex("spectral"));
             for (double y = 0.25e-3; y < side; y += 0.5e-3)
@@ -188,6 +196,8 @@ int main(int argc, char** argv)
             return 1;
         }
         report("(a) erosion, never breaking", static_cast<long>(a.points().size()), steps, t, "erosion overhead");
+        std::printf("    the block's step: %s with erosion, %s without\n", a.lastStepPipelined() ? "wavefront" : "passes",
+                    b.lastStepPipelined() ? "wavefront" : "passes");
     }
 
     // (b) The branching plate while cracking, from one state: with and without erosion.
