@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <atomic>
 #include <exception>
+#include <thread>
 #include <climits>
 #include <cstring>
 #include <cmath>
@@ -192,6 +193,14 @@ template <int D, class K> void Solver<D, K>::pipelineLoop()
     for (auto& f : flag) f.store(0);
     std::atomic<bool> failed{false};
     const auto set = [&](int i) { flag[i].store(1, std::memory_order_release); };
+    // A worker with nothing to do waits for the other: a pause, and every 64th time the rest of
+    // its time slice (should the two threads share a core).
+    const auto idle = [](int& spins) {
+        if (++spins % 64 == 0)
+            std::this_thread::yield();
+        else
+            __builtin_ia32_pause();
+    };
     const auto is = [&](int i) { return !two || flag[i].load(std::memory_order_acquire) != 0; };
     bool velCond = condHi < 0, forceCond = condHi < 0;
     struct Ring {
@@ -228,7 +237,7 @@ template <int D, class K> void Solver<D, K>::pipelineLoop()
             return true;
         };
         const int gate = a > 0 ? W * a + S - 1 : W * a;
-        int mP = 0, mS = 0, vel = W * a, force = W * a, upd = W * a, next = a;
+        int mP = 0, mS = 0, vel = W * a, force = W * a, upd = W * a, next = a, spins = 0;
         while (next < NS) {
             if (failed.load(std::memory_order_relaxed)) return;
             bool moved = false;
@@ -278,7 +287,7 @@ template <int D, class K> void Solver<D, K>::pipelineLoop()
             if (!moved) {
                 if (!two)  // (one worker waits on nothing: no progress would be a flaw here)
                     throw std::logic_error("EigenMPM: internal error: the wavefront step stalled at strip " + std::to_string(next));
-                __builtin_ia32_pause();
+                idle(spins);
             }
         }
     };
@@ -286,10 +295,11 @@ template <int D, class K> void Solver<D, K>::pipelineLoop()
     const auto downward = [&]() {
         Ring ring{ring_.data(), R, maxStrip, start.data(), std::vector<int>(R, -1)};
         const int stages = h / 2;
+        int spins = 0;
         const auto wait = [&](int i) {
             while (!is(i))
                 if (failed.load(std::memory_order_relaxed)) return false;
-                else __builtin_ia32_pause();
+                else idle(spins);
             return true;
         };
         const auto stage = [&](const std::function<void(int, int)>& f, int j, bool p2g) {
@@ -349,7 +359,7 @@ template <int D, class K> void Solver<D, K>::pipelineLoop()
                 --next;
                 moved = true;
             }
-            if (!moved) __builtin_ia32_pause();
+            if (!moved) idle(spins);
         }
     };
     if (!two) {
