@@ -173,18 +173,11 @@ template <int D, class K> void Solver<D, K>::pipelineLoop()
     for (int s = 0; s < NS; ++s) maxStrip = std::max(maxStrip, start[s + 1] - start[s]);
     if (ring_.size() < static_cast<std::size_t>((two ? 2 : 1) * R * maxStrip)) ring_.resize((two ? 2 : 1) * R * maxStrip);
     const double cut = massCutoffAbs_;
-    const auto velocityRows = [&](int lo, int hi) {  // (nodalVelocity's numbers)
-        for (int I = lo * rowSize; I < hi * rowSize; ++I) {
-            g.invMass[I] = g.mass[I] > cut && g.mass[I] > 0 ? 1.0 / g.mass[I] : 0.0;
-            g.velocity[I] = g.mass[I] > 0 ? Vec<D>(g.momentum[I] / g.mass[I]) : Vec<D>::Zero();
-        }
+    const auto velocityRows = [&](int lo, int hi) {
+        for (int I = lo * rowSize; I < hi * rowSize; ++I) velocityAt(I, cut);
     };
-    const auto updateRows = [&](int lo, int hi) {  // (updateGrid's numbers)
-        for (int I = lo * rowSize; I < hi * rowSize; ++I) {
-            g.momentum[I] += dt * g.force[I];
-            g.velocity[I] = g.momentum[I] * g.invMass[I];
-            g.force[I] *= g.invMass[I];
-        }
+    const auto updateRows = [&](int lo, int hi) {
+        for (int I = lo * rowSize; I < hi * rowSize; ++I) updateAt(I, dt);
     };
     // Flags: 0 upper P2G(h) done, 1 lower P2G(h - 1), 2 upper velocity of the shared rows,
     // 3 upper stress(h), 4 lower stress(h - 1), 5 upper update of the shared rows; `failed`
@@ -706,24 +699,26 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
     if (dist_) dist_->finishScatter(g, fields);
 }
 
+template <int D, class K> EMP_ALWAYS_INLINE void Solver<D, K>::velocityAt(int I, double cut)
+{
+    auto& g = grid_;
+    constexpr int W = Grid<D>::sumsWidth;
+    if constexpr (W > 0) {  // (3D: P2G's sums, Grid::massMomentum)
+        const double* r = g.massMomentum.data() + static_cast<std::size_t>(I) * W;
+        g.mass[I] = r[0];
+        for (int d = 0; d < D; ++d) g.momentum[I][d] = r[1 + d];
+    }
+    g.invMass[I] = g.mass[I] > cut && g.mass[I] > 0 ? 1.0 / g.mass[I] : 0.0;
+    g.velocity[I] = g.mass[I] > 0 ? Vec<D>(g.momentum[I] / g.mass[I]) : Vec<D>::Zero();
+}
+
 template <int D, class K> void Solver<D, K>::nodalVelocity(int nThreads)
 {
     // v_I = P_I / m_I is a mass-weighted mean of point velocities, bounded however light the
     // node: no cut-off here, or the gradients in Eq 27 would stop summing to zero and a rigid
     // motion would strain. The cut-off applies where a force is divided by the mass (invMass).
-    auto& g = grid_;
     const double cut = massCutoffAbs_;
-    constexpr int W = Grid<D>::sumsWidth;
-    const double* mm = g.massMomentum.data();
-    forEachWorkNode(nThreads, [&](int I) {
-        if constexpr (W > 0) {  // (3D: P2G's sums, Grid::massMomentum)
-            const double* r = mm + static_cast<std::size_t>(I) * W;
-            g.mass[I] = r[0];
-            for (int d = 0; d < D; ++d) g.momentum[I][d] = r[1 + d];
-        }
-        g.invMass[I] = g.mass[I] > cut && g.mass[I] > 0 ? 1.0 / g.mass[I] : 0.0;
-        g.velocity[I] = g.mass[I] > 0 ? Vec<D>(g.momentum[I] / g.mass[I]) : Vec<D>::Zero();
-    });
+    forEachWorkNode(nThreads, [&](int I) { velocityAt(I, cut); });
 }
 
 template <int D, class K> void Solver<D, K>::applyConditionsAfterVelocity(double dt)
@@ -1589,16 +1584,19 @@ template <int D, class K> void Solver<D, K>::setCrackContact(bool on, double fri
     crackContact_->friction = friction;
 }
 
+template <int D, class K> EMP_ALWAYS_INLINE void Solver<D, K>::updateAt(int I, double dt)
+{
+    auto& g = grid_;
+    g.momentum[I] += dt * g.force[I];
+    g.velocity[I] = g.momentum[I] * g.invMass[I];
+    g.force[I] *= g.invMass[I];
+}
+
 template <int D, class K> void Solver<D, K>::updateGrid(double dt, int nThreads)
 {
     // Nodal momentum P^{n+1/2} = P^{n-1/2} + dt f (Eq 29); the grid then holds the nodal
     // acceleration (for Eq 30) in `force` and the velocity (for Eq 31) in `velocity`.
-    auto& g = grid_;
-    forEachWorkNode(nThreads, [&](int I) {
-        g.momentum[I] += dt * g.force[I];
-        g.velocity[I] = g.momentum[I] * g.invMass[I];
-        g.force[I] *= g.invMass[I];
-    });
+    forEachWorkNode(nThreads, [&](int I) { updateAt(I, dt); });
 }
 
 template <int D, class K> void Solver<D, K>::accumulateExternalWork(double dt)

@@ -287,6 +287,10 @@ private:
     void tractionForces();
     void applyConditionsAfterForces(double dt);
     void updateGrid(double dt, int nThreads);
+    /// One node's nodal velocity (nodalVelocity) and update (updateGrid): the passes' and the
+    /// wavefront's (pipelineLoop) numbers from one place.
+    void velocityAt(int I, double cut);
+    void updateAt(int I, double dt);
     void gridToParticle(double dt, int nThreads);
     void accumulateExternalWork(double dt);
     /// The step as a wavefront over the strips (doc/performance.md, "Session 52"): each pass's
