@@ -660,7 +660,7 @@ template <int D, class K> void Solver<D, K>::particleToGrid(int nThreads)
                         for (int d = 0; d < D; ++d)
                             std::memcpy(&offset_[(D + d) * n + begin], frames.r[d], (end - begin) * sizeof(double));
             } else
-                St::template computeRun<stencilRun>(end - begin, x, g, half, (stripStencils_ ? stripStencils_ : stencil_.data()) + begin, nearBox);
+                St::template computeRun<stencilRun>(end - begin, x, g, half, stencils() + begin, nearBox);
             if (box.any) mapRun(begin, end, near);
             withLaneIsa([&]() EMP_LAMBDA_INLINE {  // (the rows' loops in the lanes' width)
                 const PassArrays A = passArrays();

@@ -310,6 +310,8 @@ private:
     /// A worker's ring of its strips' stencils during a wavefront step (stripStencils_ + k is
     /// slot k's stencil for the strip it is on), or null: the passes' stencil_.
     static thread_local St* stripStencils_;
+    /// Where slot k's stencil is this step: stencils() + k (the worker's ring, or stencil_).
+    St* stencils() { return stripStencils_ ? stripStencils_ : stencil_.data(); }
     std::vector<St> ring_;
     void transportCracks(double dt);
 
@@ -335,7 +337,7 @@ private:
     };
     PassArrays passArrays()
     {
-        PassArrays a{points_.view(), schedule_.order().data(), stripStencils_ ? stripStencils_ : stencil_.data(), grid_.mass.data(),
+        PassArrays a{points_.view(), schedule_.order().data(), stencils(), grid_.mass.data(),
                      grid_.momentum.data(), grid_.velocity.data(), grid_.force.data(), {}, {},
                      grid_.massMomentum.data()};
         const std::size_t n = stencil_.size();
