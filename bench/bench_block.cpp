@@ -14,7 +14,7 @@
 //   bench_block [--sizes 1e5,1e6] [--threads 1,2] [--min-time 3] [--warmup 3]
 //               [--cases gimp2,linear2,gimp3] [--size3d 1e5] [--steps N] [--amp 0.01] [--quick]
 //               [--transfer FLIP|APIC] [--stress-update smallStrain|corotational] [--gravity G]
-//               [--modes "FLIP smallStrain,APIC corotational" [--chunk N]]
+//               [--modes "FLIP smallStrain,APIC corotational" [--chunk N]] [--erosion]
 //
 // --amp A sets the initial velocity amplitude to A times the wave speed (strains of order A).
 // With the default 1e-2 the points leave their lattice sites within a few steps; with 1e-5
@@ -27,6 +27,11 @@
 // --step passes runs every step pass by pass (Solver::setPipelined(false)); by default a scene
 // the wavefront serves runs as one (Solver::pipelineable; doc/performance.md, "Session 52"), with
 // the same results. JSON lines carry "step": "pipelined" or "passes" (the last step's).
+// --erosion attaches an eigenerosion stage that never fires (Gc = 1e12 J/m2, alpha 2, kappa
+// 1.1 h: no point is ever a source, as in bench_fracture's case (a)); the results, and so the
+// checksums, are those without it, and the benchmark fails if it ever searched or eroded.
+// JSON lines carry "erosion": true or false. (Issue 12 item 1 asks for the step's speed "with
+// eigenerosion attached".)
 // --modes "T U,T U,..." (transfer and stress update per mode) measures what the options cost in
 // one process: it builds the block once per mode and steps the scenes in turn, --chunk steps
 // (default 1) each, in alternating order, on the first thread count, until each has run
@@ -86,6 +91,7 @@ struct Options {
     std::vector<std::pair<emp::Transfer, emp::StressUpdate>> modes;  ///< --modes: interleaved scenes
     int chunk = 1;  ///< --modes: steps per scene and turn
     bool passes = false;  ///< --step passes: every step pass by pass (Solver::setPipelined(false))
+    bool erosion = false;  ///< --erosion: an erosion stage that never fires
 };
 
 /// The MPI transport, counting the bytes this rank sends (exchanges, reductions, gathers).
@@ -175,7 +181,7 @@ std::vector<std::string> splitNames(const std::string& s)
                  "bench_block: %s\nusage: bench_block [--sizes 1e5,1e6] [--threads 1,2] [--min-time S]\n"
                  "       [--warmup N] [--cases gimp2,linear2,gimp3] [--size3d N] [--steps N] [--amp A] [--quick]\n"
                  "       [--column-cells W] [--mpi [--rank-columns C]] [--transfer T] [--stress-update U]\n"
-                 "       [--step passes|pipelined]\n"
+                 "       [--step passes|pipelined] [--erosion]\n"
                  "       [--modes \"T U,T U,...\" [--chunk N]]\n",
                  msg);
     std::exit(2);
@@ -202,6 +208,7 @@ Options parse(int argc, char** argv)
         else if (a == "--column-cells") o.columnCells = std::stoi(next());
         else if (a == "--rank-columns") o.rankColumns = std::stoi(next());
         else if (a == "--gravity") o.gravity = std::stod(next());
+        else if (a == "--erosion") o.erosion = true;
         else if (a == "--step") {
             const std::string v = next();
             if (v != "passes" && v != "pipelined") usage("--step takes passes or pipelined");
@@ -282,6 +289,7 @@ template <int D, class K> emp::Solver<D, K> makeBlock(const std::array<int, D>& 
     s.columnCells = o.columnCells;
     emp::Solver<D, K> solver(s);
     solver.setPipelined(!o.passes);
+    if (o.erosion) solver.setErosion(std::make_shared<emp::EigenErosion<D>>(emp::ErosionSettings{1e12, 2.0, 1.1 * h}));
     const int mat = solver.addMaterial(E, nu, rho, false, emp::lawIndex("spectral"));
     const double dx = h / ppc, vol = std::pow(dx, D);
     const double c = solver.materials()[mat].waveSpeed();
@@ -372,6 +380,10 @@ Result runOnce(const std::string& name, const std::array<int, D>& n, int threads
     }
     if (checkAt <= 0) r.checksum = checksum(solver);
     r.pipelined = solver.lastStepPipelined();
+    if (o.erosion && (solver.erosion()->searchedLastStep() || solver.erosion()->erodedCount() != 0)) {
+        std::fprintf(stderr, "bench_block: the erosion stage (--erosion) searched or eroded\n");
+        std::exit(4);
+    }
     if (o.mpi) {  // the whole scene: all ranks' points over the slowest rank's time
         double sums[1] = {static_cast<double>(solver.points().size())};
         double maxes[3] = {wall, cpu, (mpiTransport()->sent - sent0) / steps};
@@ -565,10 +577,10 @@ int main(int argc, char** argv)
         std::printf("JSON {\"case\": \"%s\", \"points\": %ld, \"threads\": %d, \"steps\": %ld, \"wall_time_s\": %.6f, \"cpu_time_s\": %.6f, "
                     "\"particle_steps_per_s\": %.6g, \"ratio_to_first_thread_count\": %.4f, \"resident_bytes_per_point\": %.1f, "
                     "\"checksum\": \"%016" PRIx64 "\", \"bitwise_equal_to_first\": %s, \"ranks\": %d, \"bytes_sent_per_step\": %.0f, "
-                    "\"isa\": \"%s\", \"lanes\": \"%s\", \"step\": \"%s\"%s}\n",
+                    "\"isa\": \"%s\", \"lanes\": \"%s\", \"step\": \"%s\", \"erosion\": %s%s}\n",
                     r.caseName.c_str(), r.points, r.threads, r.steps, r.wall, r.cpu, r.pps, r.ratio, r.bytesPerPoint, r.checksum,
                     r.checked ? (r.deterministic ? "true" : "false") : "null", r.ranks, r.bytesSentPerStep, isa,
-                    emp::name(emp::laneIsa()), r.pipelined ? "pipelined" : "passes", modeFields(r).c_str());
+                    emp::name(emp::laneIsa()), r.pipelined ? "pipelined" : "passes", o.erosion ? "true" : "false", modeFields(r).c_str());
     if (!allSame) {
         std::fprintf(stderr, "bench_block: results differ between thread counts (determinism broken)\n");
         return 3;

@@ -16,10 +16,9 @@
 //
 //   bench_fracture [--h-mm 0.5] [--crack-time-us 25] [--block 20] [--min-time 4] [--threads 1]
 //                  [--block-points 1e5] [--quick] [--step-passes]
-// --step-passes: (a)'s block without erosion steps pass by pass too (Solver::setPipelined(false)):
-// then (a) reads what the erosion stage itself costs; by default the block without erosion runs
-// as a wavefront (doc/performance.md, "Session 52"), which a scene with erosion does not yet, and
-// (a) reads what attaching erosion costs a user.
+// --step-passes: (a)'s two blocks step pass by pass (Solver::setPipelined(false)) instead of as a
+// wavefront (doc/performance.md, "Session 52"; with erosion since session 53): (a) then reads
+// what the erosion stage costs in that form of the step.
 // --quick: --h-mm 1 --min-time 0.5 --block-points 2e4.
 #include <cmath>
 #include <cstdio>
@@ -172,8 +171,8 @@ int main(int argc, char** argv)
         s.stressUpdate = emp::StressUpdate::smallStrain;
         s.h = 1e-3;
         Plate a(s), b(s);
-        a.setPipelined(!o.passes);  // (b, without erosion, runs as a wavefront unless --step-passes;
-        b.setPipelined(!o.passes);  //  a, with it, pass by pass: Solver::pipelineable)
+        a.setPipelined(!o.passes);  // (both run as a wavefront unless --step-passes:
+        b.setPipelined(!o.passes);  //  Solver::pipelineable)
         for (Plate* p : {&a, &b}) {
             const int mat = p->addMaterial(30e9, 0.2, 2400, false, emp::lawIndex("spectral"));
             for (double y = 0.25e-3; y < side; y += 0.5e-3)

@@ -9,7 +9,11 @@ that keeps the arithmetic keeps them.
     /usr/bin/python3.11 bench/compare.py OLD NEW [--rounds 7] [--cases gimp2,gimp3]
         [--sizes 1e5] [--size3d 1e5] [--threads 1] [--min-time 2] [--steps N] [--metric cpu]
         [--bench-args "--transfer APIC --stress-update corotational"]
-        [--old-target bench_block] [--new-target bench_block_v2] [--cpus 0]
+        [--old-target bench_block] [--new-target bench_block_v2] [--cpus 0] [--new-args "--erosion"]
+
+--new-args adds arguments to NEW's runs only: "--erosion" times NEW with an erosion stage
+attached (one that never fires, so the checksums still compare) against OLD without one, where
+OLD's bench_block has no such option (issue 12 item 1, "with eigenerosion attached").
 
 --metric cpu rates each run by its CPU time (points x steps / CPU seconds) instead of its wall
 time: on one thread it is much less sensitive to other jobs on a shared machine (they still
@@ -57,11 +61,11 @@ def build(rev, workdir, jobs, target="bench_block"):
     return os.path.join(bld, target)
 
 
-def measure(exe, a):
+def measure(exe, a, extra=""):
     cmd = [exe, "--sizes", a.sizes, "--size3d", a.size3d, "--threads", a.threads, "--cases", a.cases,
            "--warmup", "2"]
     cmd += ["--steps", str(a.steps)] if a.steps else ["--min-time", str(a.min_time)]
-    cmd += shlex.split(a.bench_args)
+    cmd += shlex.split(a.bench_args) + shlex.split(extra)
     out = run(cmd, capture_output=True, preexec_fn=pinning(a.cpus)).stdout
     rows = [json.loads(line[5:]) for line in out.splitlines() if line.startswith("JSON ")]
     return {(r["case"], r["points"], r["threads"]): r for r in rows}
@@ -89,6 +93,8 @@ def main():
                    help="rate by wall time (default) or CPU time (one thread on a busy machine)")
     p.add_argument("--bench-args", default="",
                    help="more arguments for both builds' bench_block (the option modes: --transfer, --stress-update)")
+    p.add_argument("--new-args", default="",
+                   help="more arguments for NEW's runs only (--erosion: NEW with an erosion stage that never fires)")
     p.add_argument("--old-target", default="bench_block",
                    help="the benchmark built from OLD: bench_block, or bench_block_v2 (the x86-64-v2 build "
                         "that the Python module runs on such a processor, since session 17)")
@@ -105,14 +111,14 @@ def main():
         res = {}
         # Alternate which build runs first, so that a trend in the machine's speed cancels.
         for which in (("old", "new") if r % 2 == 0 else ("new", "old")):
-            res[which] = measure(exe[which], a)
+            res[which] = measure(exe[which], a, a.new_args if which == "new" else "")
         for key in res["old"]:
             ratios.setdefault(key, []).append(rate(res["new"][key], a.metric) / rate(res["old"][key], a.metric))
             checks.setdefault(key, set()).add((res["old"][key]["checksum"], res["new"][key]["checksum"]))
         print(f"round {r + 1}/{a.rounds}: " + ", ".join(f"{k[0]} {k[1]} pts {k[2]} thr {ratios[k][-1]:.3f}"
                                                         for k in ratios), flush=True)
     print(f"\nNEW/OLD particle-steps per {a.metric} second, {a.rounds} alternating rounds "
-          f"(old {a.old}, new {a.new}):")
+          f"(old {a.old}, new {a.new}{' ' + a.new_args if a.new_args else ''}):")
     print(f"{'case':<12}{'points':>9}{'threads':>8}{'median':>8}{'min':>8}{'q1':>8}{'q3':>8}{'max':>8}  checksums")
     bad = False
     for key, rs in ratios.items():

@@ -103,16 +103,15 @@ int EigenErosion<D>::apply(MaterialPoints<D>& P, const std::vector<ElasticMateri
                            Transport* transport, const PointSupport<D>* rows, const Grid<D>* g)
 {
     const ErosionSettings& s = settings_;
-    const double hSource = s.Gc / (s.alpha * s.kappa);  // alpha kappa H >= Gc  <=>  H >= hSource
     const int n = static_cast<int>(P.size());
     const Neighbourhood<D> view{P, ghosts, n};
     sources_.clear();
     eroding_.clear();
     before_.clear();
-    for (int p = 0; p < n; ++p)
-        if (P.history[p] >= hSource && P.damage[p] > 0) sources_.push_back(p);
+    for (int p = 0; p < n; ++p)  // (alpha kappa H >= Gc  <=>  H >= sourceHistory())
+        if (isSource(P.history[p], P.damage[p])) sources_.push_back(p);
     for (int q = n; q < view.total(); ++q)
-        if (view.history(q) >= hSource && view.damage(q) > 0) sources_.push_back(q);
+        if (isSource(view.history(q), view.damage(q))) sources_.push_back(q);
     // The box of the sources (of all ranks in a distributed run: the cells are then the same).
     Vec<D> lo = Vec<D>::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
     for (int q : sources_) {

@@ -57,6 +57,19 @@ public:
     std::vector<double> energyReleaseRate(const MaterialPoints<D>& P, const std::vector<int>& ids);
 
     const ErosionSettings& settings() const { return settings_; }
+    /// A point is a source (alpha kappa H >= Gc, and intact) when its history reaches this.
+    double sourceHistory() const { return settings_.Gc / (settings_.alpha * settings_.kappa); }
+    bool isSource(double history, double damage) const { return history >= sourceHistory() && damage > 0; }
+    /// What apply() does in a step in which no point is a source (the caller has tested every
+    /// point with isSource after the stress update): no search, nothing eroded.
+    void noSources()
+    {
+        sources_.clear();
+        candidates_.clear();
+        eroding_.clear();
+        before_.clear();
+        searched_ = false;
+    }
     double dissipatedEnergy() const { return dissipated_; }  ///< Eq 33, J
     std::size_t erodedCount() const { return events_.size(); }
     const std::vector<ErosionEvent>& events() const { return events_; }

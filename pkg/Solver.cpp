@@ -106,11 +106,12 @@ template <int D, class K> bool Solver<D, K>::pipelineable(int nThreads) const
 {
     // The scenes the wavefront serves (pipelineLoop); the others run pass by pass, with the same
     // results. What is left out has a stage over the whole grid or all points between P2G and
-    // G2P (erosion, tractions, the crack's and the bodies' mapping and contact, a distributed
-    // run's exchanges, conditions on points), or other passes (APIC, the co-rotational update,
-    // 3D, the scheduler's columns, the baseline's per-point P2G).
+    // G2P (tractions, the crack's and the bodies' mapping and contact, a distributed run's
+    // exchanges, conditions on points), or other passes (APIC, the co-rotational update, 3D, the
+    // scheduler's columns, the baseline's per-point P2G). Erosion is served: pipelineLoop holds
+    // the grid update back from the rows a source could reach.
     if (!pipelined_ || D != 2 || nThreads > 2 || !K::laneEvaluation || laneIsa() == LaneIsa::baseline) return false;
-    if (dist_ || mapping_ || points_.bodies || erosion_ || !tractions_.empty() || contact_ || crackContact_ ||
+    if (dist_ || mapping_ || points_.bodies || !tractions_.empty() || contact_ || crackContact_ ||
         !phantom_.empty() || grid_.totalNodes() != grid_.numNodes() || schedule_.numColumns() > 1)
         return false;
     if (settings_.transfer != Transfer::flip || settings_.stressUpdate != StressUpdate::smallStrain) return false;
@@ -141,6 +142,18 @@ template <int D, class K> void Solver<D, K>::pipelineLoop()
     // Two workers: strips [0, h) from h - 1 down (stage j: h - 2 - 2j, then h - 1 - 2j) and
     // [h, NS) from h up (h even), so that both start at the node rows they share, W h ...
     // W h + S - 2, which the upper worker owns. Six flags order the work on those rows as above.
+    //
+    // Eigenerosion needs every point's history before it can decide (EigenErosion::apply), and
+    // then corrects the forces of the rows near the points it erodes. The stress stage tests its
+    // strip's points for sources (EigenErosion::isSource); a node row is updated only once every
+    // strip within E rows of it has had its stress stage and none held a source, where E covers
+    // what a source reaches: the candidates within kappa and their supports (the corrections),
+    // and the points within 2 kappa whose histories and positions the search reads (G2P moves a
+    // strip's points only after its rows are updated). Once a source is seen, no further row is
+    // updated and no G2P starts; after the last stress stage the whole erosion stage runs (the
+    // passes' erode, the same candidates, the same corrections in the same order), and the
+    // rest follows. With no source in the step, apply()'s own scan is skipped (noSources). The
+    // ring then holds every strip: a held-back strip keeps its stencils, and P2G must not wait.
     auto& g = grid_;
     const double dt = strips_->dt;
     const auto& start = schedule_.stripStart();
@@ -168,7 +181,13 @@ template <int D, class K> void Solver<D, K>::pipelineLoop()
     // The strips from the conditions' lowest row to their highest wait for them (no strip that
     // reads a condition's rows goes on before every row it touches is final), so the ring holds
     // that many and a margin; conditions at both ends of a scene make it hold every strip.
-    const int R = std::min(NS, std::max(16, condHi >= 0 ? (condHi - condLo) / W + 10 : 0));
+    const bool eroding = erosion_ != nullptr;
+    const int R = eroding ? NS : std::min(NS, std::max(16, condHi >= 0 ? (condHi - condLo) / W + 10 : 0));
+    // The rows a source's erosion stage reaches: candidates within kappa, ceil(kappa / h)
+    // rows and one for the base row's rounding, their supports' S - 1 more; the points within
+    // 2 kappa (and a row for a point's move in G2P) that the search reads.
+    const int kappaRows = eroding ? static_cast<int>(std::ceil(std::min(erosion_->settings().kappa * g.invh, double(rows)))) : 0;
+    const int E = eroding ? 2 * kappaRows + S + 3 : 0;
     int maxStrip = 0;
     for (int s = 0; s < NS; ++s) maxStrip = std::max(maxStrip, start[s + 1] - start[s]);
     if (ring_.size() < static_cast<std::size_t>((two ? 2 : 1) * R * maxStrip)) ring_.resize((two ? 2 : 1) * R * maxStrip);
@@ -195,6 +214,42 @@ template <int D, class K> void Solver<D, K>::pipelineLoop()
             __builtin_ia32_pause();
     };
     const auto is = [&](int i) { return !two || flag[i].load(std::memory_order_acquire) != 0; };
+    // Erosion: a source seen in a stress stage; each worker's stress stages done (published after
+    // its strips' sources); workers through all their stress stages; the erosion stage done (or
+    // known to have nothing to do); G2P calls under way (the erosion stage waits for none).
+    std::atomic<bool> sourceSeen{false}, settled{!eroding};
+    std::atomic<int> stressUp{0}, stressDown{0}, stressFinished{0}, inG2P{0};
+    const auto sourcesOf = [&](int s) {
+        if (!eroding) return;
+        const auto& order = schedule_.order();
+        for (int k = start[s]; k < start[s + 1]; ++k) {
+            const int p = order[k];
+            if (erosion_->isSource(points_.history[p], points_.damage[p])) {
+                sourceSeen.store(true);
+                return;
+            }
+        }
+    };
+    // After a worker's last stress stage: the last worker through runs the erosion stage, once no
+    // G2P is under way (a G2P that starts after a source was seen steps back: runG2P).
+    const auto stressFinishedBy = [&]() {
+        if (!eroding || stressFinished.fetch_add(1) + 1 < workers_) return;
+        if (sourceSeen.load()) {
+            int spins = 0;
+            while (inG2P.load() != 0)
+                if (failed.load(std::memory_order_relaxed)) return;
+                else idle(spins);
+            erode(dt, 1);
+        }
+        settled.store(true);
+    };
+    const auto runG2P = [&](int s) {
+        inG2P.fetch_add(1);
+        const bool go = settled.load() || !sourceSeen.load();
+        if (go) strips_->g2p(s);
+        inG2P.fetch_sub(1);
+        return go;
+    };
     bool velCond = condHi < 0, forceCond = condHi < 0;
     struct Ring {
         St* base;
@@ -216,6 +271,7 @@ template <int D, class K> void Solver<D, K>::pipelineLoop()
                 if (s < a || s >= NS) continue;
                 p2g ? ring.take(s) : ring.use(s);
                 f(start[s], start[s + 1]);
+                if (!p2g) sourcesOf(s);
                 if (s == a) set(p2g ? 0 : 3);
             }
         };
@@ -231,6 +287,17 @@ template <int D, class K> void Solver<D, K>::pipelineLoop()
         };
         const int gate = a > 0 ? W * a + S - 1 : W * a;
         int mP = 0, mS = 0, vel = W * a, force = W * a, upd = W * a, next = a, spins = 0;
+        // Erosion: the rows [W a, clear()) that no source can reach, as far as known now.
+        const auto clear = [&]() {
+            if (settled.load()) return rows;
+            const int done = mS == 0 ? a : std::min(NS, a + 2 * mS - 1);  // strips [a, done) stressed
+            int hi = done == NS ? rows : W * done - E;
+            if (a > 0) {  // (the lower worker's strips [low, h) stressed: rows from W low + E)
+                const int low = std::max(0, h - 2 * stressDown.load());
+                if (low > 0 && W * low + E > W * a) hi = W * a;
+            }
+            return sourceSeen.load() ? std::min(hi, upd) : hi;
+        };
         while (next < NS) {
             if (failed.load(std::memory_order_relaxed)) return;
             bool moved = false;
@@ -255,14 +322,17 @@ template <int D, class K> void Solver<D, K>::pipelineLoop()
                 if (!(vel == rows || vel > need) || !(!owner || velCond || need < condLo)) break;
                 stage(strips_->stress, mS, false);
                 ++mS;
+                stressUp.store(mS);
+                if (mS == stages) stressFinishedBy();
                 force = final(mS);
                 moved = true;
             }
-            if (owner && velCond && !forceCond && force > condHi) {
+            const int open = eroding ? std::min(force, clear()) : force;  // (final and out of erosion's reach)
+            if (owner && velCond && !forceCond && open > condHi) {
                 applyConditionsAfterForces(dt);
                 forceCond = true;
             }
-            int upTo = owner && !forceCond ? std::min(force, condLo) : force;
+            int upTo = owner && !forceCond ? std::min(open, condLo) : open;
             if (upd < gate && !is(4)) upTo = upd;
             if (upTo > upd) {
                 updateRows(upd, upTo);
@@ -272,7 +342,7 @@ template <int D, class K> void Solver<D, K>::pipelineLoop()
             }
             while (next < NS && (upd == rows || upd > W * next + reach)) {
                 ring.use(next);
-                strips_->g2p(next);
+                if (!runG2P(next)) break;
                 ring.release(next);
                 ++next;
                 moved = true;
@@ -300,6 +370,7 @@ template <int D, class K> void Solver<D, K>::pipelineLoop()
                 if (s == h - 1 && !wait(p2g ? 0 : 3)) return false;  // (the upper strip first)
                 p2g ? ring.take(s) : ring.use(s);
                 f(start[s], start[s + 1]);
+                if (!p2g) sourcesOf(s);
                 if (s == h - 1) set(p2g ? 1 : 4);
             }
             return true;
@@ -310,6 +381,16 @@ template <int D, class K> void Solver<D, K>::pipelineLoop()
             return lowest <= 0 ? 0 : W * lowest + S - 1;
         };
         int jP = 0, jS = 0, vel = W * h, force = W * h, upd = W * h, next = h - 1;
+        // Erosion: the rows [clear(), W h) that no source can reach, as far as known now.
+        const auto clear = [&]() {
+            if (settled.load()) return 0;
+            const int lowest = h - 2 * jS;  // strips [lowest, h) stressed
+            int lo = lowest <= 0 ? 0 : W * lowest + E;
+            const int m = stressUp.load();  // (the upper worker's strips [h, done) stressed: rows below W done - E)
+            const int done = m == 0 ? h : std::min(NS, h + 2 * m - 1);
+            if (done < NS && W * done - E < W * h) lo = W * h;
+            return sourceSeen.load() ? std::max(lo, upd) : lo;
+        };
         while (next >= 0) {
             if (failed.load(std::memory_order_relaxed)) return;
             bool moved = false;
@@ -332,14 +413,17 @@ template <int D, class K> void Solver<D, K>::pipelineLoop()
                 if (vel > first || (jS == 0 && !is(2)) || (condLower && !velCond && first <= condHi)) break;
                 if (!stage(strips_->stress, jS, false)) return;
                 ++jS;
+                stressDown.store(jS);
+                if (jS == stages) stressFinishedBy();
                 force = low(jS);
                 moved = true;
             }
-            if (condLower && velCond && !forceCond && force <= condLo) {
+            const int open = eroding ? std::max(force, clear()) : force;  // (final and out of erosion's reach)
+            if (condLower && velCond && !forceCond && open <= condLo) {
                 applyConditionsAfterForces(dt);
                 forceCond = true;
             }
-            const int downTo = condLower && !forceCond ? std::max(force, condHi + 1) : force;
+            const int downTo = condLower && !forceCond ? std::max(open, condHi + 1) : open;
             if (downTo < upd) {
                 updateRows(downTo, upd);
                 upd = downTo;
@@ -347,7 +431,7 @@ template <int D, class K> void Solver<D, K>::pipelineLoop()
             }
             while (next >= 0 && upd <= W * next && (next < h - 1 || is(5))) {
                 ring.use(next);
-                strips_->g2p(next);
+                if (!runG2P(next)) break;
                 ring.release(next);
                 --next;
                 moved = true;
@@ -381,6 +465,7 @@ template <int D, class K> void Solver<D, K>::pipelineLoop()
             if (e) std::rethrow_exception(e);
     }
     stripStencils_ = nullptr;  // (the master thread's, before the diagnostics)
+    if (eroding && !sourceSeen.load()) erosion_->noSources();
     accumulateExternalWork(dt);
 }
 

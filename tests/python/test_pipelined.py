@@ -1,7 +1,7 @@
 """The step as a wavefront over the strips (MpmEngine.solver.pipelined, doc/performance.md
 "Session 52") through the YADE engine: a 2D FLIP scene with node conditions runs as one, with
-bitwise the results of the step pass by pass on one and two threads; erosion makes it run pass
-by pass; the switch is not part of the saved state, and a restored run continues bitwise."""
+bitwise the results of the step pass by pass on one and two threads, with an erosion stage that
+erodes too; the switch is not part of the saved state, and a restored run continues bitwise."""
 import numpy as np
 import pytest
 from yade import O, pack
@@ -12,7 +12,8 @@ from eigenmpm import _eigenmpm
 
 def column(pipelined, threads, eroding=False, pulled=True):
     """A glass column 20 x 60 cells, its base fixed, its top pulled up (or moving freely, its
-    points given an upward velocity): 40 steps."""
+    points given an upward velocity): 40 steps. The erosion stage erodes the layer below the
+    pulled top within them."""
     O.reset()
     mpm = em.MpmEngine(dim=2, h=0.001, threads=threads, thickness=0.001)
     mpm.fill(pack.inAlignedBox((0, 0, 0), (0.02, 0.06, 0)), em.ElasticMaterial(E=72e9, nu=0.22, rho=2440))
@@ -25,7 +26,7 @@ def column(pipelined, threads, eroding=False, pulled=True):
         mpm.solver.setVelocities(v)
     engines = [mpm]
     if eroding:
-        engines.append(em.EigenErosion(engine=mpm, Gc=3.0, alpha=2, kappaOverH=1.1))
+        engines.append(em.EigenErosion(engine=mpm, Gc=1.0, alpha=2, kappaOverH=1.1))
     O.engines = engines
     O.dt = 0.4 * mpm.criticalTimeStep()
     mpm.solver.pipelined = pipelined
@@ -52,9 +53,24 @@ def test_the_wavefront_gives_the_passes_results_bitwise(threads, pulled, workers
     assert np.abs(a[2]).max() > 1e3  # (a loaded column, not a scene at rest)
 
 
-def test_erosion_runs_pass_by_pass_and_a_restored_run_continues_bitwise():
-    mpm = column(True, 1, eroding=True)
-    assert mpm.solver.pipelined and not mpm.solver.lastStepPipelined()
+@pytest.mark.parametrize("threads", [1, 2])
+def test_with_erosion_the_wavefront_gives_the_passes_results_and_events(threads):
+    passes = column(False, threads, eroding=True)
+    a = fields(passes.solver) + [passes.solver.damage()]
+    ea = passes.solver.erosion
+    events = [ea.eventPoints(), ea.eventTimes()]
+    dissipated, eroded = ea.dissipatedEnergy, ea.erodedCount
+    wave = column(True, threads, eroding=True)
+    if not wave.solver.lastStepPipelined():
+        pytest.skip("no AVX2 or AVX-512 lanes here: every step runs pass by pass")
+    for x, y in zip(a, fields(wave.solver) + [wave.solver.damage()]):
+        assert np.array_equal(x, y)
+    eb = wave.solver.erosion
+    assert eroded > 0 and eb.erodedCount == eroded and eb.dissipatedEnergy == dissipated
+    assert np.array_equal(events[0], eb.eventPoints()) and np.array_equal(events[1], eb.eventTimes())
+
+
+def test_a_restored_run_continues_bitwise():
     plain = column(True, 1)
     copy = _eigenmpm.solverFromState(plain.solver.saveState())
     assert copy.pipelined  # (a speed switch, not saved: a restored solver has the default)
