@@ -10,6 +10,7 @@
 #include <cstring>
 #include <cmath>
 #include <limits>
+#include <mutex>
 #include <sstream>
 #include <type_traits>
 
@@ -58,7 +59,8 @@ template <int D, class K> void Solver<D, K>::step(double dt, int nThreads)
         // The same stages as below, as a wavefront over the strips (pipelineLoop): (1), (2),
         // the conditions, (3), (5), the grid update and (6) follow each other a few strips
         // apart, each strip's stencils in its worker's ring instead of stencil_.
-        if (!stencil_.empty()) std::vector<St>().swap(stencil_);
+        // (kept after a step with sources: the next has them too, and may need the overflow)
+        if (!stencil_.empty() && !(erosion_ && erosion_->searchedLastStep())) std::vector<St>().swap(stencil_);
         StripPasses passes;
         passes.dt = dt;
         passes.threads = nThreads;
@@ -152,8 +154,10 @@ template <int D, class K> void Solver<D, K>::pipelineLoop()
     // strip's points only after its rows are updated). Once a source is seen, no further row is
     // updated and no G2P starts; after the last stress stage the whole erosion stage runs (the
     // passes' erode, the same candidates, the same corrections in the same order), and the
-    // rest follows. With no source in the step, apply()'s own scan is skipped (noSources). The
-    // ring then holds every strip: a held-back strip keeps its stencils, and P2G must not wait.
+    // rest follows. With no source in the step, apply()'s own scan is skipped (noSources). A
+    // held-back strip keeps its ring slot, and P2G must not wait for it: once a source is seen, a
+    // strip whose slot is held writes its stencils to stencil_'s slots instead (the overflow,
+    // allocated then), and every strip gets to its stress stage.
     auto& g = grid_;
     const double dt = strips_->dt;
     const auto& start = schedule_.stripStart();
@@ -181,13 +185,14 @@ template <int D, class K> void Solver<D, K>::pipelineLoop()
     // The strips from the conditions' lowest row to their highest wait for them (no strip that
     // reads a condition's rows goes on before every row it touches is final), so the ring holds
     // that many and a margin; conditions at both ends of a scene make it hold every strip.
+    // Erosion holds the update back E rows more (below), and the ring that many strips more.
     const bool eroding = erosion_ != nullptr;
-    const int R = eroding ? NS : std::min(NS, std::max(16, condHi >= 0 ? (condHi - condLo) / W + 10 : 0));
     // The rows a source's erosion stage reaches: candidates within kappa, ceil(kappa / h)
     // rows and one for the base row's rounding, their supports' S - 1 more; the points within
     // 2 kappa (and a row for a point's move in G2P) that the search reads.
     const int kappaRows = eroding ? static_cast<int>(std::ceil(std::min(erosion_->settings().kappa * g.invh, double(rows)))) : 0;
     const int E = eroding ? 2 * kappaRows + S + 3 : 0;
+    const int R = std::min(NS, std::max(16, condHi >= 0 ? (condHi - condLo) / W + 10 : 0) + (E + W - 1) / W);
     int maxStrip = 0;
     for (int s = 0; s < NS; ++s) maxStrip = std::max(maxStrip, start[s + 1] - start[s]);
     if (ring_.size() < static_cast<std::size_t>((two ? 2 : 1) * R * maxStrip)) ring_.resize((two ? 2 : 1) * R * maxStrip);
@@ -243,6 +248,15 @@ template <int D, class K> void Solver<D, K>::pipelineLoop()
         }
         settled.store(true);
     };
+    // The overflow: stencil_ by slot, allocated by the first strip that needs it.
+    std::once_flag overflowOnce;
+    const auto overflowing = [&]() { return eroding && sourceSeen.load() && !settled.load(); };
+    const auto overflow = [&]() {
+        std::call_once(overflowOnce, [&]() {
+            if (stencil_.size() < points_.size()) stencil_.resize(points_.size());
+        });
+        return stencil_.data();
+    };
     const auto runG2P = [&](int s) {
         inG2P.fetch_add(1);
         const bool go = settled.load() || !sourceSeen.load();
@@ -255,21 +269,33 @@ template <int D, class K> void Solver<D, K>::pipelineLoop()
         St* base;
         int R, maxStrip;
         const int* start;
-        std::vector<int> holder;
+        std::vector<int> holder;  // the strip in each slot, or -1
+        std::vector<St*> at;      // where strip s's stencils are (stripStencils_ for it)
         bool free(int s) const { return holder[s % R] == -1; }
-        void take(int s) { holder[s % R] = s, use(s); }
-        void use(int s) { stripStencils_ = base + (s % R) * maxStrip - start[s]; }
-        void release(int s) { holder[s % R] = -1; }
+        void take(int s, St* overflow)  // its slot, or (held) the overflow
+        {
+            if (free(s))
+                holder[s % R] = s, at[s] = base + (s % R) * maxStrip - start[s];
+            else
+                at[s] = overflow;
+            use(s);
+        }
+        void use(int s) { stripStencils_ = at[s]; }
+        void release(int s)
+        {
+            if (holder[s % R] == s) holder[s % R] = -1;
+        }
     };
     // The upward worker: strips [a, NS), node rows [W a, rows); below `gate` the rows it shares
     // with the lower worker (a > 0).
     const auto upward = [&](int worker, int a, bool owner) {  // (owner: applies the conditions)
-        Ring ring{ring_.data() + worker * R * maxStrip, R, maxStrip, start.data(), std::vector<int>(R, -1)};
+        Ring ring{ring_.data() + worker * R * maxStrip, R, maxStrip, start.data(), std::vector<int>(R, -1),
+                  std::vector<St*>(NS, nullptr)};
         const int nb = NS - a, stages = nb / 2 + 1;
         const auto stage = [&](const std::function<void(int, int)>& f, int m, bool p2g) {
             for (const int s : {a + 2 * m, a + 2 * m - 1}) {
                 if (s < a || s >= NS) continue;
-                p2g ? ring.take(s) : ring.use(s);
+                p2g ? ring.take(s, ring.free(s) ? nullptr : overflow()) : ring.use(s);
                 f(start[s], start[s + 1]);
                 if (!p2g) sourcesOf(s);
                 if (s == a) set(p2g ? 0 : 3);
@@ -282,7 +308,7 @@ template <int D, class K> void Solver<D, K>::pipelineLoop()
         };
         const auto stageFree = [&](int m) {
             for (const int s : {a + 2 * m, a + 2 * m - 1})
-                if (s >= a && s < NS && !ring.free(s)) return false;
+                if (s >= a && s < NS && !ring.free(s) && !overflowing()) return false;
             return true;
         };
         const int gate = a > 0 ? W * a + S - 1 : W * a;
@@ -356,7 +382,7 @@ template <int D, class K> void Solver<D, K>::pipelineLoop()
     };
     // The downward worker: strips [0, h) from h - 1 down, node rows [0, W h).
     const auto downward = [&]() {
-        Ring ring{ring_.data(), R, maxStrip, start.data(), std::vector<int>(R, -1)};
+        Ring ring{ring_.data(), R, maxStrip, start.data(), std::vector<int>(R, -1), std::vector<St*>(NS, nullptr)};
         const int stages = h / 2;
         int spins = 0;
         const auto wait = [&](int i) {
@@ -368,7 +394,7 @@ template <int D, class K> void Solver<D, K>::pipelineLoop()
         const auto stage = [&](const std::function<void(int, int)>& f, int j, bool p2g) {
             for (const int s : {h - 2 - 2 * j, h - 1 - 2 * j}) {
                 if (s == h - 1 && !wait(p2g ? 0 : 3)) return false;  // (the upper strip first)
-                p2g ? ring.take(s) : ring.use(s);
+                p2g ? ring.take(s, ring.free(s) ? nullptr : overflow()) : ring.use(s);
                 f(start[s], start[s + 1]);
                 if (!p2g) sourcesOf(s);
                 if (s == h - 1) set(p2g ? 1 : 4);
@@ -394,7 +420,7 @@ template <int D, class K> void Solver<D, K>::pipelineLoop()
         while (next >= 0) {
             if (failed.load(std::memory_order_relaxed)) return;
             bool moved = false;
-            if (jP < stages && ring.free(h - 2 - 2 * jP) && ring.free(h - 1 - 2 * jP)) {
+            if (jP < stages && ((ring.free(h - 2 - 2 * jP) && ring.free(h - 1 - 2 * jP)) || overflowing())) {
                 if (!stage(strips_->p2g, jP, true)) return;
                 ++jP;
                 moved = true;
@@ -1529,8 +1555,9 @@ const typename Solver<D, K>::St& Solver<D, K>::stepStencil(int p, St& scratch, i
     // P2G's stencil of p (the same numbers as stencilOf: the points have not moved since, and
     // its remap slot is p's own), in slot `slot` or found in p's tile by its id; stencilOf where
     // p was not binned.
+    // (In a wavefront step, stencil_ holds only the overflow's strips: pipelineLoop.)
     const int k = slot >= -1 ? slot : schedule_.slotOf(p);
-    if (k >= 0 && static_cast<std::size_t>(k) < stencil_.size()) return stencil_[k];
+    if (!strips_ && k >= 0 && static_cast<std::size_t>(k) < stencil_.size()) return stencil_[k];
     scratch = stencilOf(p);
     return scratch;
 }

@@ -127,10 +127,10 @@ TEST(Pipelined, OneAndTwoWorkersGiveTheSameBits)
 /// there after a step or more without any. The wavefront (the update held back from a source's
 /// reach, the erosion stage after the last stress stage) gives the passes' bits, the same
 /// eroded points, candidates and events.
-void compareEroding(Held held, int threads, int workers, double y0, double Gc, double kappa)
+void compareEroding(Held held, int threads, int workers, double y0, double Gc, double kappa, int cells = 60)
 {
     const auto make = [&]() {
-        Solver<2, GimpKernel> s = makeBlock(held, false, 60, y0);
+        Solver<2, GimpKernel> s = makeBlock(held, false, cells, y0);
         s.setErosion(std::make_shared<emp::EigenErosion<2>>(emp::ErosionSettings{Gc, 2.0, kappa}));
         return s;
     };
@@ -174,6 +174,11 @@ TEST(Pipelined, ErosionIsBitwiseThePasses)
     compareEroding(Held::none, 2, 2, 1.6, 200.0, 0.2);  // (at the workers' boundary)
     compareEroding(Held::base, 2, 2, 2.6, 200.0, 0.2);  // (in the upper worker's strips)
     compareEroding(Held::top, 2, 2, 0.8, 200.0, 0.2);   // (in the lower worker's)
+    // 160 cells, 80 strips, more than a worker's ring holds: once a source is seen, the strips
+    // whose ring slot is held write their stencils to the overflow
+    compareEroding(Held::none, 1, 1, 1.0, 100.0, 0.11, 160);
+    compareEroding(Held::none, 2, 2, 4.6, 100.0, 0.11, 160);  // (the upper worker's early strips)
+    compareEroding(Held::none, 2, 2, 3.6, 100.0, 0.11, 160);  // (the lower worker's)
 }
 
 TEST(Pipelined, OtherScenesRunPassByPass)
