@@ -9,11 +9,12 @@ that keeps the arithmetic keeps them.
     /usr/bin/python3.11 bench/compare.py OLD NEW [--rounds 7] [--cases gimp2,gimp3]
         [--sizes 1e5] [--size3d 1e5] [--threads 1] [--min-time 2] [--steps N] [--metric cpu]
         [--bench-args "--transfer APIC --stress-update corotational"]
-        [--old-target bench_block] [--new-target bench_block_v2] [--cpus 0] [--new-args "--erosion"]
+        [--old-target bench_block] [--new-target bench_block_v2] [--cpus 0] [--new-args=--erosion]
 
---new-args adds arguments to NEW's runs only: "--erosion" times NEW with an erosion stage
-attached (one that never fires, so the checksums still compare) against OLD without one, where
-OLD's bench_block has no such option (issue 12 item 1, "with eigenerosion attached").
+--new-args=ARGS adds arguments to NEW's runs only (with the "=", as they begin with "--"):
+--new-args=--erosion times NEW with an erosion stage attached (one that never fires, so the
+checksums still compare) against OLD without one, where OLD's bench_block has no such option
+(issue 12 item 1, "with eigenerosion attached").
 
 --metric cpu rates each run by its CPU time (points x steps / CPU seconds) instead of its wall
 time: on one thread it is much less sensitive to other jobs on a shared machine (they still

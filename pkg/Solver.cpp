@@ -148,10 +148,10 @@ template <int D, class K> void Solver<D, K>::pipelineLoop()
     // Eigenerosion needs every point's history before it can decide (EigenErosion::apply), and
     // then corrects the forces of the rows near the points it erodes. The stress stage tests its
     // strip's points for sources (EigenErosion::isSource); a node row is updated only once every
-    // strip within E rows of it has had its stress stage and none held a source, where E covers
-    // what a source reaches: the candidates within kappa and their supports (the corrections),
-    // and the points within 2 kappa whose histories and positions the search reads (G2P moves a
-    // strip's points only after its rows are updated). Once a source is seen, no further row is
+    // strip from Ebelow rows below it to Eabove rows above it has had its stress stage and none
+    // held a source, where these cover what a source reaches: the candidates within kappa and
+    // their supports (the corrections), and the points within 2 kappa whose histories and
+    // positions the search reads (G2P moves a strip's points only after its rows are updated). Once a source is seen, no further row is
     // updated and no G2P starts; after the last stress stage the whole erosion stage runs (the
     // passes' erode, the same candidates, the same corrections in the same order), and the
     // rest follows. With no source in the step, apply()'s own scan is skipped (noSources). A
@@ -185,14 +185,21 @@ template <int D, class K> void Solver<D, K>::pipelineLoop()
     // The strips from the conditions' lowest row to their highest wait for them (no strip that
     // reads a condition's rows goes on before every row it touches is final), so the ring holds
     // that many and a margin; conditions at both ends of a scene make it hold every strip.
-    // Erosion holds the update back E rows more (below), and the ring that many strips more.
+    // Erosion holds the update back Eabove / Ebelow rows more (below), and the ring that many
+    // strips more.
     const bool eroding = erosion_ != nullptr;
-    // The rows a source's erosion stage reaches: candidates within kappa, ceil(kappa / h)
-    // rows and one for the base row's rounding, their supports' S - 1 more; the points within
-    // 2 kappa (and a row for a point's move in G2P) that the search reads.
+    // How far a source reaches, in base rows (Kr = ceil(kappa / h); two points within a distance
+    // d have base rows at most floor(d / h) + 1 apart): a row r gets corrections from sources
+    // with base rows in [r - Kr - S, r + Kr + 1] (candidates within kappa, their supports); and
+    // G2P of strip s, once rows [W s, W s + reach] are updated, moves points that must lie
+    // farther than 2 kappa + h (the search's reach, and a step's move) from every source: base
+    // rows [W s - 2 Kr - 2, W s + W + 2 Kr + 1] free. So a row is out of reach once no source
+    // lies Eabove rows above it or Ebelow below it.
     const int kappaRows = eroding ? static_cast<int>(std::ceil(std::min(erosion_->settings().kappa * g.invh, double(rows)))) : 0;
-    const int E = eroding ? 2 * kappaRows + S + 3 : 0;
-    const int R = std::min(NS, std::max(16, condHi >= 0 ? (condHi - condLo) / W + 10 : 0) + (E + W - 1) / W);
+    const int Eabove = eroding ? std::max(kappaRows + 1, 2 * kappaRows + 1 + W - reach) : 0;
+    const int Ebelow = eroding ? std::max(kappaRows + S, 2 * kappaRows + 2) : 0;
+    const int R = std::min(NS, std::max(16, condHi >= 0 ? (condHi - condLo) / W + 10 : 0) +
+                                   (std::max(Eabove, Ebelow) + W - 1) / W);
     int maxStrip = 0;
     for (int s = 0; s < NS; ++s) maxStrip = std::max(maxStrip, start[s + 1] - start[s]);
     if (ring_.size() < static_cast<std::size_t>((two ? 2 : 1) * R * maxStrip)) ring_.resize((two ? 2 : 1) * R * maxStrip);
@@ -317,10 +324,10 @@ template <int D, class K> void Solver<D, K>::pipelineLoop()
         const auto clear = [&]() {
             if (settled.load()) return rows;
             const int done = mS == 0 ? a : std::min(NS, a + 2 * mS - 1);  // strips [a, done) stressed
-            int hi = done == NS ? rows : W * done - E;
-            if (a > 0) {  // (the lower worker's strips [low, h) stressed: rows from W low + E)
+            int hi = done == NS ? rows : W * done - Eabove;
+            if (a > 0) {  // (the lower worker's strips [low, h) stressed: rows from W low + Ebelow)
                 const int low = std::max(0, h - 2 * stressDown.load());
-                if (low > 0 && W * low + E > W * a) hi = W * a;
+                if (low > 0 && W * low + Ebelow > W * a) hi = W * a;
             }
             return sourceSeen.load() ? std::min(hi, upd) : hi;
         };
@@ -411,10 +418,10 @@ template <int D, class K> void Solver<D, K>::pipelineLoop()
         const auto clear = [&]() {
             if (settled.load()) return 0;
             const int lowest = h - 2 * jS;  // strips [lowest, h) stressed
-            int lo = lowest <= 0 ? 0 : W * lowest + E;
-            const int m = stressUp.load();  // (the upper worker's strips [h, done) stressed: rows below W done - E)
+            int lo = lowest <= 0 ? 0 : W * lowest + Ebelow;
+            const int m = stressUp.load();  // (the upper worker's strips [h, done) stressed: rows below W done - Eabove)
             const int done = m == 0 ? h : std::min(NS, h + 2 * m - 1);
-            if (done < NS && W * done - E < W * h) lo = W * h;
+            if (done < NS && W * done - Eabove < W * h) lo = W * h;
             return sourceSeen.load() ? std::max(lo, upd) : lo;
         };
         while (next >= 0) {
