@@ -70,6 +70,16 @@ public:
     virtual ~GridCondition() = default;
     virtual void afterNodalVelocity(GridState<D>&) {}
     virtual void afterForces(GridState<D>&) {}
+    /// Whether the condition reads and writes only regular nodes it can name before the step,
+    /// the lowest and highest of them in [lo, hi] (lo > hi: none). A step as a wavefront
+    /// (Solver::pipelineLoop) then applies it once every row of those nodes is final, before
+    /// anything reads them. The default, false (it reads the points, the twins or other state),
+    /// makes every step with it run pass by pass.
+    virtual bool nodeRange(int& lo, int& hi) const
+    {
+        (void)lo, (void)hi;
+        return false;
+    }
 };
 
 }  // namespace emp

@@ -117,10 +117,9 @@ template <int D, class K> bool Solver<D, K>::pipelineable(int nThreads) const
         !phantom_.empty() || grid_.totalNodes() != grid_.numNodes() || schedule_.numColumns() > 1)
         return false;
     if (settings_.transfer != Transfer::flip || settings_.stressUpdate != StressUpdate::smallStrain) return false;
-    for (const auto& c : conditions_) {  // (velocity conditions on nodes: their rows are known)
-        const auto* vc = dynamic_cast<const VelocityCondition<D>*>(c.get());
-        if (!vc || !vc->points.empty()) return false;
-    }
+    int lo, hi;
+    for (const auto& c : conditions_)  // (conditions on nodes named before the step: their rows are known)
+        if (!c->nodeRange(lo, hi)) return false;
     return schedule_.stripStart().size() > 1;
 }
 
@@ -168,9 +167,10 @@ template <int D, class K> void Solver<D, K>::pipelineLoop()
         ~Reset() { stripStencils_ = nullptr; }
     } reset;
     int condLo = rows, condHi = -1;  // the rows the conditions touch
-    for (const auto& c : conditions_)
-        for (const int I : static_cast<const VelocityCondition<D>&>(*c).nodes)
-            condLo = std::min(condLo, I / rowSize), condHi = std::max(condHi, I / rowSize);
+    for (const auto& c : conditions_) {
+        int lo, hi;
+        if (c->nodeRange(lo, hi) && lo <= hi) condLo = std::min(condLo, lo / rowSize), condHi = std::max(condHi, hi / rowSize);
+    }
     int h = NS;
     if (strips_->threads >= 2 && NS >= 8) {  // the boundary at half the points, even, 2 .. NS - 2
         h = 2;

@@ -5,6 +5,7 @@
 // it applies to the phantom twins of its nodes too.
 #pragma once
 #include <Eigen/Dense>
+#include <algorithm>
 #include <vector>
 
 #include "BoundaryConditions.hpp"
@@ -37,6 +38,14 @@ public:
     /// Replaces the force by the one that makes the node reach m v at t^{n+1/2}; the reaction
     /// is what that adds to the internal and external forces.
     void afterForces(GridState<D>& s) override;
+    /// With a node list only: its lowest and highest node (points move: no range).
+    bool nodeRange(int& lo, int& hi) const override
+    {
+        if (!points.empty()) return false;
+        lo = INT_MAX, hi = -1;
+        for (const int I : nodes) lo = std::min(lo, I), hi = std::max(hi, I);
+        return true;
+    }
 
 private:
     template <class F> void forEachConstrained(const PhantomNodes<D>& ph, F&& f) const

@@ -5,6 +5,8 @@
 
 #include "test_helpers.hpp"
 
+#include "Lanes.hpp"
+
 namespace {
 
 using emp::Vec;
@@ -127,6 +129,46 @@ TYPED_TEST(GridConditionTest, ConditionWrittenOutsideTheCoreActsLikeTheBuiltInOn
     double diff = 0;
     for (std::size_t p = 0; p < a->points().size(); ++p) diff += (a->points().x[p] - c->points().x[p]).norm();
     EXPECT_GT(diff, 0.0);
+}
+
+/// RollerBelow naming its nodes (GridCondition::nodeRange), as a condition that reads and writes
+/// only nodes it knows before the step can.
+template <int D> struct NamedRollerBelow : RollerBelow<D> {
+    int lo = INT_MAX, hi = -1;
+    NamedRollerBelow(double y, const emp::Grid<D>& g) : RollerBelow<D>(y)
+    {
+        for (int I = 0; I < g.numNodes(); ++I)
+            if (g.nodePosition(I)[1] <= y) lo = std::min(lo, I), hi = std::max(hi, I);
+    }
+    bool nodeRange(int& l, int& h) const override
+    {
+        l = lo, h = hi;
+        return true;
+    }
+};
+
+TEST(GridConditionRange, ANamedNodeRangeRunsAsAWavefront)
+{
+    // The step as a wavefront (Solver::pipelineLoop) serves a condition that names its nodes and
+    // runs pass by pass with one that does not; the same results, bitwise.
+    using K = emp::GimpKernel;
+    const double y = 0.045;
+    auto a = wavyBlock<2, K>(), b = wavyBlock<2, K>();
+    a->addCondition(std::make_shared<RollerBelow<2>>(y));
+    b->addCondition(std::make_shared<NamedRollerBelow<2>>(y, b->grid()));
+    ASSERT_LE(static_cast<const NamedRollerBelow<2>&>(*b->conditions().back()).lo,
+              static_cast<const NamedRollerBelow<2>&>(*b->conditions().back()).hi);
+    const double dt = 0.5 * a->criticalTimeStep();
+    for (int k = 0; k < 20; ++k) {
+        a->step(dt, 1);
+        b->step(dt, 1);
+    }
+    EXPECT_FALSE(a->lastStepPipelined());
+    EXPECT_EQ(b->lastStepPipelined(), emp::laneIsa() != emp::LaneIsa::baseline);
+    for (std::size_t p = 0; p < a->points().size(); ++p) {
+        EXPECT_EQ(a->points().x[p], b->points().x[p]) << "point " << p;
+        EXPECT_EQ(a->stressOf(p), b->stressOf(p)) << "point " << p;
+    }
 }
 
 TYPED_TEST(GridConditionTest, NullConditionIsRefused)
