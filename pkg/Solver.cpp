@@ -103,6 +103,7 @@ template <int D, class K> void Solver<D, K>::step(double dt, int nThreads)
 }
 
 template <int D, class K> thread_local typename Solver<D, K>::St* Solver<D, K>::stripStencils_ = nullptr;
+template <int D, class K> thread_local bool Solver<D, K>::stripSource_ = false;
 
 template <int D, class K> bool Solver<D, K>::pipelineable(int nThreads) const
 {
@@ -164,8 +165,13 @@ template <int D, class K> void Solver<D, K>::pipelineLoop()
     const int rows = g.n[D - 1], rowSize = g.stride[D - 1];
     constexpr int W = Scheduler<D>::stripWidth, S = K::S, reach = W + S - 2;
     struct Reset {  // (the passes read stencil_ again however this ends, an exception included)
-        ~Reset() { stripStencils_ = nullptr; }
-    } reset;
+        Solver& s;
+        ~Reset()
+        {
+            stripStencils_ = nullptr;
+            s.sourceHistory_ = std::numeric_limits<double>::infinity();
+        }
+    } reset{*this};
     int condLo = rows, condHi = -1;  // the rows the conditions touch
     for (const auto& c : conditions_) {
         int lo, hi;
@@ -231,16 +237,14 @@ template <int D, class K> void Solver<D, K>::pipelineLoop()
     // known to have nothing to do); G2P calls under way (the erosion stage waits for none).
     std::atomic<bool> sourceSeen{false}, settled{!eroding};
     std::atomic<int> stressUp{0}, stressDown{0}, stressFinished{0}, inG2P{0};
-    const auto sourcesOf = [&](int s) {
-        if (!eroding) return;
-        const auto& order = schedule_.order();
-        for (int k = start[s]; k < start[s + 1]; ++k) {
-            const int p = order[k];
-            if (erosion_->isSource(points_.history[p], points_.damage[p])) {
-                sourceSeen.store(true);
-                return;
-            }
-        }
+    // The law notes a source in its worker's stripSource_ (lawOfRun, as EigenErosion::isSource
+    // tests: history >= sourceHistory_, intact); after a strip's stress stage it is published.
+    // (A flag left set by a step that stopped with an error would only make the next one search
+    // for sources in vain: apply() then finds none, as noSources says.)
+    sourceHistory_ = eroding ? erosion_->sourceHistory() : std::numeric_limits<double>::infinity();
+    const auto sourcesOf = [&](int) {
+        if (stripSource_) sourceSeen.store(true);
+        stripSource_ = false;
     };
     // After a worker's last stress stage: the last worker through runs the erosion stage, once no
     // G2P is under way (a G2P that starts after a source was seen steps back: runG2P).
@@ -944,6 +948,9 @@ template <int D, class K> EMP_ALWAYS_INLINE void Solver<D, K>::lawOfRun(const in
         if (withSharedPointwiseLaw(ids, n, [&](auto l) { lawOfRun3<decltype(l)>(ids, n, sigma); })) return;
     }
     for (int i = 0; i < n; ++i) lawAt(ids[i], sigma[i]);
+    if (D == 2 && sourceHistory_ < std::numeric_limits<double>::infinity())  // (as lawOfRun2 notes them)
+        for (int i = 0; i < n; ++i)
+            if (points_.history[ids[i]] >= sourceHistory_ && points_.damage[ids[i]] > 0) stripSource_ = true;
 }
 
 template <int D, class K>
@@ -984,10 +991,10 @@ EMP_ALWAYS_INLINE void Solver<D, K>::lawInputs(const int* ids, int n, double* c,
 }
 
 template <int D, class K>
-EMP_ALWAYS_INLINE void Solver<D, K>::storeEnergies(int p, double c, double psiPlus, double psiMinus)
+EMP_ALWAYS_INLINE double Solver<D, K>::storeEnergies(int p, double c, double psiPlus, double psiMinus)
 {
     points_.energy[p] = c * psiPlus + psiMinus;
-    points_.history[p] = std::max(points_.history[p], psiPlus);  // Eq 22
+    return points_.history[p] = std::max(points_.history[p], psiPlus);  // Eq 22
 }
 
 template <int D, class K>
@@ -1010,11 +1017,16 @@ EMP_ALWAYS_INLINE void Solver<D, K>::lawOfRun2(const int* ids, int n, PointTenso
         Law::response2(e[0][i], e[1][i], e[2][i], e[3][i], c[i], lambda[i], mu[i], sigma[0][i], sigma[1][i],
                        sigma[2][i], sigma[3][i], psiPlus[i], psiMinus[i]);
     });
+    // (A wavefront step with erosion: whether a point became or is a source, EigenErosion::isSource,
+    // while its history and damage are at hand; sourceHistory_ is infinite otherwise.)
+    const double hs = sourceHistory_;
+    bool source = false;
     for (int i = 0; i < n; ++i) {
         const int p = ids[i];
         out[i] = Sym2::of(sigma[0][i], sigma[1][i], sigma[2][i], sigma[3][i]);
-        storeEnergies(p, c[i], psiPlus[i], psiMinus[i]);
+        source |= (storeEnergies(p, c[i], psiPlus[i], psiMinus[i]) >= hs) & (c[i] > 0);
     }
+    if (source) stripSource_ = true;
 }
 
 template <int D, class K>

@@ -310,6 +310,11 @@ private:
     /// A worker's ring of its strips' stencils during a wavefront step (stripStencils_ + k is
     /// slot k's stencil for the strip it is on), or null: the passes' stencil_.
     static thread_local St* stripStencils_;
+    /// During a wavefront step with erosion: the history at which a point is a source
+    /// (EigenErosion::sourceHistory; infinite otherwise), and whether the law met one in the
+    /// strip its worker is on (lawOfRun).
+    double sourceHistory_ = std::numeric_limits<double>::infinity();
+    static thread_local bool stripSource_;
     /// Where slot k's stencil is this step: stencils() + k (the worker's ring, or stencil_).
     St* stencils() { return stripStencils_ ? stripStencils_ : stencil_.data(); }
     std::vector<St> ring_;
@@ -363,7 +368,7 @@ private:
     /// ids in (lawInputs), then each point's energy c psi+ + psi- and history max(H, psi+)
     /// (Eq 22) out (storeEnergies).
     void lawInputs(const int* ids, int n, double* c, double* lambda, double* mu) const;
-    void storeEnergies(int p, double c, double psiPlus, double psiMinus);
+    double storeEnergies(int p, double c, double psiPlus, double psiMinus);  ///< returns the new history
     /// The law at n points at once, through the law's pointwise 2D response (Law.hpp).
     template <class Law> void lawOfRun2(const int* ids, int n, PointTensor<D>* sigma);
     /// The same in 3D (response3); the points it calls not ordinary through lawAt.
