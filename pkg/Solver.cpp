@@ -146,18 +146,19 @@ template <int D, class K> void Solver<D, K>::pipelineLoop()
     // W h + S - 2, which the upper worker owns. Six flags order the work on those rows as above.
     //
     // Eigenerosion needs every point's history before it can decide (EigenErosion::apply), and
-    // then corrects the forces of the rows near the points it erodes. The stress stage tests its
-    // strip's points for sources (EigenErosion::isSource); a node row is updated only once every
-    // strip from Ebelow rows below it to Eabove rows above it has had its stress stage and none
-    // held a source, where these cover what a source reaches: the candidates within kappa and
-    // their supports (the corrections), and the points within 2 kappa whose histories and
-    // positions the search reads (G2P moves a strip's points only after its rows are updated). Once a source is seen, no further row is
-    // updated and no G2P starts; after the last stress stage the whole erosion stage runs (the
-    // passes' erode, the same candidates, the same corrections in the same order), and the
-    // rest follows. With no source in the step, apply()'s own scan is skipped (noSources). A
-    // held-back strip keeps its ring slot, and P2G must not wait for it: once a source is seen, a
-    // strip whose slot is held writes its stencils to stencil_'s slots instead (the overflow,
-    // allocated then), and every strip gets to its stress stage.
+    // then corrects the forces of the rows near the points it erodes. The law notes a source in
+    // the strip's stress stage (lawOfRun, as EigenErosion::isSource tests); a node row is updated
+    // only once every strip from Ebelow rows below it to Eabove rows above it has had its stress
+    // stage and none held a source, where these cover what a source reaches: the candidates
+    // within kappa and their supports (the corrections), and the points within 2 kappa whose
+    // histories and positions the search reads (G2P moves a strip's points only after its rows
+    // are updated). Once a source is seen, no further row is updated and no G2P starts; after the
+    // last stress stage the whole erosion stage runs (the passes' erode, the same candidates, the
+    // same corrections in the same order), and the rest follows. With no source in the step,
+    // apply()'s own scan is skipped (noSources). A held-back strip keeps its ring slot, and P2G
+    // must not wait for it: once a source is seen, a strip whose slot is held writes its stencils
+    // to stencil_'s slots instead (the overflow, allocated then), and every strip gets to its
+    // stress stage.
     auto& g = grid_;
     const double dt = strips_->dt;
     const auto& start = schedule_.stripStart();
