@@ -225,20 +225,28 @@ public:
             }
     }
 
-    /// Calls f(begin, end, acc) for every block of `gatherBlock` consecutive slots [begin, end),
-    /// where f writes only the points of those slots, with an accumulator acc (initialised to
-    /// init) per block; the blocks' accumulators are then folded by combine(total, blockAcc) in
-    /// block order. The blocks do not depend on the thread count, so neither does the result,
-    /// whatever combine does (sums too).
+    /// Calls f(begin, end, acc) for every strip's slots [begin, end) (stripStart), where f writes
+    /// only the points of those slots, with an accumulator acc (initialised to init) per strip;
+    /// the strips' accumulators are then folded by combine(total, stripAcc) in strip order. The
+    /// strips do not depend on the thread count, so neither does the result, whatever combine
+    /// does (sums too); and a step as a wavefront (Solver::pipelineLoop), which gathers strip by
+    /// strip, gets the same result.
     template <class Acc, class F, class C> Acc gather(int nThreads, Acc init, F&& f, C&& combine) const
     {
-        constexpr int gatherBlock = 2048;
-        const int np = size(), nb = (np + gatherBlock - 1) / gatherBlock;
+        const int np = size();
+        if (stripStart_.size() < 2 || stripStart_.back() != np) {  // (not binned: one block)
+            Acc acc = init;
+            if (np > 0) f(0, np, acc);
+            Acc total = init;
+            combine(total, acc);
+            return total;
+        }
+        const int nb = static_cast<int>(stripStart_.size()) - 1;
         std::vector<Acc> part(nb, init);
-#pragma omp parallel for schedule(static) num_threads(nThreads)
+#pragma omp parallel for schedule(dynamic, 1) num_threads(nThreads)
         for (int b = 0; b < nb; ++b) {
             Acc acc = init;
-            f(b * gatherBlock, std::min(np, (b + 1) * gatherBlock), acc);
+            f(stripStart_[b], stripStart_[b + 1], acc);
             part[b] = acc;
         }
         Acc total = init;

@@ -260,13 +260,13 @@ template <int D, class K> void Solver<D, K>::pipelineLoop()
         }
         settled.store(true);
     };
-    // The overflow: stencil_ by slot, allocated by the first strip that needs it.
-    std::once_flag overflowOnce;
+    // The overflow: stencil_ by slot, allocated by the first strip that needs it. (A mutex, not
+    // std::call_once, whose callable's symbols the Python module would export: test_isa.py.)
+    std::mutex overflowMutex;
     const auto overflowing = [&]() { return eroding && sourceSeen.load() && !settled.load(); };
     const auto overflow = [&]() {
-        std::call_once(overflowOnce, [&]() {
-            if (stencil_.size() < points_.size()) stencil_.resize(points_.size());
-        });
+        const std::lock_guard<std::mutex> lock(overflowMutex);
+        if (stencil_.size() < points_.size()) stencil_.resize(points_.size());
         return stencil_.data();
     };
     const auto runG2P = [&](int s) {
@@ -1908,9 +1908,8 @@ template <int D, class K> void Solver<D, K>::gridToParticle(double dt, int nThre
     };
     Check c;
     if (strips_) {
-        // A wavefront step: the checks strip by strip, summed in strip order (the same for one
-        // and two workers; the passes' blocks of 2048 slots group the kinetic energy's sum
-        // otherwise: round-off).
+        // A wavefront step: the checks strip by strip, folded in strip order, as the passes'
+        // Scheduler::gather does: the same sums, bitwise (one and two workers too).
         const auto& start = schedule_.stripStart();
         std::vector<Check> parts(start.size() - 1);
         const auto block = inLanes(flip);
