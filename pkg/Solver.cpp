@@ -243,7 +243,7 @@ template <int D, class K> void Solver<D, K>::pipelineLoop()
     // (A flag left set by a step that stopped with an error would only make the next one search
     // for sources in vain: apply() then finds none, as noSources says.)
     sourceHistory_ = eroding ? erosion_->sourceHistory() : std::numeric_limits<double>::infinity();
-    const auto sourcesOf = [&](int) {
+    const auto sourcesOf = [&]() {
         if (stripSource_) sourceSeen.store(true);
         stripSource_ = false;
     };
@@ -309,7 +309,7 @@ template <int D, class K> void Solver<D, K>::pipelineLoop()
                 if (s < a || s >= NS) continue;
                 p2g ? ring.take(s, ring.free(s) ? nullptr : overflow()) : ring.use(s);
                 f(start[s], start[s + 1]);
-                if (!p2g) sourcesOf(s);
+                if (!p2g) sourcesOf();
                 if (s == a) set(p2g ? 0 : 3);
             }
         };
@@ -408,7 +408,7 @@ template <int D, class K> void Solver<D, K>::pipelineLoop()
                 if (s == h - 1 && !wait(p2g ? 0 : 3)) return false;  // (the upper strip first)
                 p2g ? ring.take(s, ring.free(s) ? nullptr : overflow()) : ring.use(s);
                 f(start[s], start[s + 1]);
-                if (!p2g) sourcesOf(s);
+                if (!p2g) sourcesOf();
                 if (s == h - 1) set(p2g ? 1 : 4);
             }
             return true;
@@ -951,7 +951,7 @@ template <int D, class K> EMP_ALWAYS_INLINE void Solver<D, K>::lawOfRun(const in
     for (int i = 0; i < n; ++i) lawAt(ids[i], sigma[i]);
     if (D == 2 && sourceHistory_ < std::numeric_limits<double>::infinity())  // (as lawOfRun2 notes them)
         for (int i = 0; i < n; ++i)
-            if (points_.history[ids[i]] >= sourceHistory_ && points_.damage[ids[i]] > 0) stripSource_ = true;
+            if (erosion_->isSource(points_.history[ids[i]], points_.damage[ids[i]])) stripSource_ = true;
 }
 
 template <int D, class K>
